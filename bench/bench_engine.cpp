@@ -1,0 +1,41 @@
+// Fixed-step throughput of whole sync intervals on the two benchmark workloads (shared/data), with
+// 1 and 2 threads. The world is built outside the timed loop; the state hash is printed beside each
+// timing so a speed-up that changes results shows at once.
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+#include <memory>
+
+#include "bench/workloads.h"
+#include "engine/world.h"
+
+namespace {
+
+using dem::bench::Workload;
+
+void run_sync_intervals(benchmark::State& bench, Workload workload) {
+  const int threads = static_cast<int>(bench.range(0));
+  dem::World world(dem::bench::benchmark_config(workload, threads));
+  constexpr int intervals_per_iteration = 20;
+  for (auto _ : bench) {
+    for (int i = 0; i < intervals_per_iteration; ++i) world.advance_sync_interval();
+  }
+  const double particle_steps = static_cast<double>(bench.iterations()) * intervals_per_iteration * world.state().size();
+  bench.counters["particle_steps_per_s"] = benchmark::Counter(particle_steps, benchmark::Counter::kIsRate);
+  bench.counters["contacts"] = static_cast<double>(world.pair_contacts().size() + world.wall_contacts().size());
+  bench.counters["bytes_per_particle"] = static_cast<double>(world.memory_bytes()) / world.state().size();
+  bench.counters["threads"] = world.thread_count();
+  char hash[32];
+  std::snprintf(hash, sizeof hash, "hash=%016llx", static_cast<unsigned long long>(world.state_hash()));
+  bench.SetLabel(hash);
+}
+
+void BM_DenseBedFixedVerlet(benchmark::State& s) { run_sync_intervals(s, Workload::dense_bed); }
+void BM_FreeFlightFixedVerlet(benchmark::State& s) { run_sync_intervals(s, Workload::free_flight); }
+
+BENCHMARK(BM_DenseBedFixedVerlet)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FreeFlightFixedVerlet)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,15 @@
+#pragma once
+// State hashing (and, later, checkpoints). The hash covers everything that determines the future of
+// a run: particle kinematics in ParticleId order, contact keys and histories, and the clock.
+#include <cstdint>
+
+#include "engine/contacts.h"
+#include "engine/scheduler.h"
+#include "engine/state.h"
+
+namespace dem {
+
+/// 64-bit FNV-1a hash of the state's bits, independent of storage order.
+std::uint64_t state_hash(const State& state, const PairContacts& pairs, const WallContacts& walls, const Clock& clock);
+
+}  // namespace dem

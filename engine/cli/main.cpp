@@ -1,0 +1,57 @@
+// The `dem` program: a thin layer over the library. Parses the command line with CLI11 and maps
+// failures to exit codes: 0 ok, 1 runtime error, 2 bad input, 3 divergence.
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <exception>
+
+#include "engine/cli/commands.h"
+#include "engine/input_error.h"
+
+#ifndef DEM_VERSION
+#define DEM_VERSION "0.0.0"
+#endif
+#ifndef DEM_GIT_HASH
+#define DEM_GIT_HASH "unknown"
+#endif
+
+int main(int argc, char** argv) {
+  CLI::App app{"dem: discrete element simulations that tell you how accurate they are"};
+  app.set_version_flag("--version", std::string("dem ") + DEM_VERSION + " (git " + DEM_GIT_HASH + ")");
+  app.require_subcommand(1);
+
+  dem::cli::RunOptions run;
+  CLI::App* run_cmd = app.add_subcommand("run", "run a scene and write its outputs");
+  run_cmd->add_option("scene", run.scene, "scene file (TOML)")->required();
+  run_cmd->add_option("--out", run.out, "output folder (default: out/<scene-name>)");
+  run_cmd->add_option("--threads", run.threads, "worker threads (default: the cores of the affinity mask)")
+      ->check(CLI::NonNegativeNumber);
+  run_cmd->add_option("--until", run.until, "simulated end time [s] (default: the scene's run.until)")
+      ->check(CLI::PositiveNumber);
+  run_cmd->add_option("--set", run.overrides, "override a scene value: key.path=value (repeatable)");
+  run_cmd->add_flag("--quiet", run.quiet, "no progress bar or final line");
+
+  std::string check_scene;
+  std::vector<std::string> check_overrides;
+  CLI::App* check_cmd = app.add_subcommand("check", "validate a scene and print its stability figures");
+  check_cmd->add_option("scene", check_scene, "scene file (TOML)")->required();
+  check_cmd->add_option("--set", check_overrides, "override a scene value: key.path=value (repeatable)");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
+  try {
+    if (*run_cmd) return dem::cli::run_command(run);
+    if (*check_cmd) return dem::cli::check_command(check_scene, check_overrides);
+  } catch (const dem::InputError& e) {
+    std::fprintf(stderr, "dem: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dem: runtime error: %s\n", e.what());
+    return 1;
+  }
+  return 1;
+}

@@ -1,0 +1,136 @@
+#pragma once
+// Plain structs a scene maps onto (scene_loader) or a program fills in code. Every field has a
+// default and an SI unit. Nothing here computes: materials.cpp, walls.cpp and world.cpp turn these
+// into run-time tables once, at set-up.
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "engine/types.h"
+
+namespace dem {
+
+/// When a normal contact stops pushing (PHYSICS.md 1.1).
+enum class Separation {
+  force_zero,  ///< F_n = max(0, k delta + c delta_dot): no force after the force-zero instant (default)
+  overlap,     ///< force until delta = 0, may turn attractive (LAMMPS gran/hooke convention)
+};
+
+/// When the rolling-resistance torque acts (PHYSICS.md 1.4).
+enum class RollingMode {
+  standard,  ///< whenever the relative rolling velocity is non-zero, sliding included (default)
+  seed,      ///< only while the contact is not sliding (Zhang & Whiten 2001)
+};
+
+/// How a damping value is given (PHYSICS.md 1.2). Converted per contact with its effective mass.
+enum class DampingKind {
+  restitution,    ///< coefficient of restitution e in (0, 1], converted with the separation convention
+  damping_ratio,  ///< zeta, dimensionless: c = 2 zeta sqrt(m k)
+  coefficient,    ///< c [N s/m] directly
+  tsuji_alpha,    ///< alpha, dimensionless: c = alpha sqrt(m k), i.e. zeta = alpha / 2
+  gamma,          ///< LAMMPS/LIGGGHTS gamma [1/s], damping per unit effective mass: c = m* gamma
+};
+
+struct Damping {
+  DampingKind kind = DampingKind::damping_ratio;
+  Real value = 0;  // unit by kind: [-], [-], [N s/m], [-], [1/s]
+};
+
+struct MaterialConfig {
+  std::string name = "default";
+  Real density = 2500;  // [kg/m^3]
+};
+
+/// Contact parameters of one pair of materials (the linear spring-dashpot family).
+/// Empty material names mean "every pair not listed otherwise".
+struct ContactConfig {
+  std::string material_a;
+  std::string material_b;
+  Real normal_stiffness = 1e5;    // k_n [N/m]
+  Damping normal_damping;         // default: none
+  Real tangential_stiffness = -1;  // k_t [N/m]; negative: 2/7 k_n (equal periods for solid spheres)
+  Damping tangential_damping;      // default: none; restitution means "the same zeta as e gives normally"
+  Real sliding_friction = 0;       // mu [-]; 0 together with static_friction 0: no tangential force
+  Real static_friction = -1;       // mu_s [-] >= mu; negative: equal to mu
+  Real rolling_friction = 0;       // mu_r [-]; 0 together with rolling_static 0: no rolling torque
+  Real rolling_static_friction = -1;  // mu_rs [-]; negative: equal to mu_r
+  Real rolling_stiffness = -1;     // k_r [N m/rad]; negative: k_t R*^2 (Ai et al. 2011 type C)
+};
+
+struct ModelConfig {
+  int dimension = 3;             // 3: spheres; 2: discs in the xy plane
+  Real thickness = 1;            // disc thickness for 2D masses [m]
+  Vec3 gravity = Vec3::Zero();   // [m/s^2]
+  Separation separation = Separation::force_zero;
+  RollingMode rolling_mode = RollingMode::standard;
+};
+
+enum class WallKind {
+  plane,     ///< half-space boundary: particles live on the side `normal` points to
+  box,       ///< finite box: a container (inside = true) or a solid block (inside = false)
+  cylinder,  ///< the inside of a cylinder (a mill shell), optionally of finite length
+};
+
+/// A wall with prescribed motion: its geometry at time t is the t = 0 geometry translated by
+/// velocity * t and rotated by angular_velocity * t about rotation_center (which moves with the wall).
+struct WallConfig {
+  std::string name;
+  WallKind kind = WallKind::plane;
+  std::string material = "default";
+  Vec3 point = Vec3::Zero();              // plane: a point on it; box: centre; cylinder: a point on the axis [m]
+  Vec3 normal = Vec3::UnitZ();            // plane: unit normal into the particles' side
+  Vec3 half_extents = Vec3::Ones();       // box: half edge lengths along x, y, z at t = 0 [m]
+  bool inside = true;                     // box: particles inside (container) or outside (solid)
+  Vec3 axis = Vec3::UnitZ();              // cylinder axis direction
+  Real radius = 1;                        // cylinder inner radius [m]
+  Real length = std::numeric_limits<Real>::infinity();  // cylinder length, centred on `point` [m]
+  Vec3 velocity = Vec3::Zero();           // [m/s]
+  Vec3 angular_velocity = Vec3::Zero();   // [rad/s]
+  Vec3 rotation_center = Vec3::Zero();    // [m], used when use_rotation_center, else `point`
+  bool use_rotation_center = false;
+};
+
+struct ParticleConfig {
+  Vec3 position = Vec3::Zero();          // [m]
+  Vec3 velocity = Vec3::Zero();          // [m/s]
+  Vec3 angular_velocity = Vec3::Zero();  // [rad/s]
+  Real radius = 0;                       // [m]
+  Real mass = 0;                         // [kg]; 0: from the density
+  Real density = 0;                      // [kg/m^3]; 0: the material's density
+  std::string material = "default";
+};
+
+enum class Method { verlet, exact };
+enum class Control { fixed, doubling };
+
+struct IntegratorConfig {
+  Method method = Method::verlet;
+  Control control = Control::fixed;
+  Real dt = 1e-5;         // fixed step [s]
+  Real dt_base = 0;       // level-0 step for doubling [s]; 0: equal to dt
+  Real tolerance = 1e-4;  // doubling error tolerance [-]
+  int level_min = -10;
+  int level_max = 10;
+  Real safety = 0.8;
+  Real velocity_weight = 1;
+  Real dx_min = 1e-3;  // relative to the radius
+  bool richardson = true;
+};
+
+struct BroadphaseConfig {
+  Real skin = -1;       // neighbour skin [m]; negative: 10% of the smallest radius
+  bool use_kd_tree = false;  // k-d tree instead of the grid (wide size ranges)
+};
+
+struct WorldConfig {
+  ModelConfig model;
+  std::vector<MaterialConfig> materials{MaterialConfig{}};
+  std::vector<ContactConfig> contacts{ContactConfig{}};
+  std::vector<WallConfig> walls;
+  std::vector<ParticleConfig> particles;
+  IntegratorConfig integrator;
+  BroadphaseConfig broadphase;
+  int threads = 0;  // 0: the cores in the process's affinity mask
+};
+
+}  // namespace dem

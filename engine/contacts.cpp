@@ -1,0 +1,178 @@
+#include "engine/contacts.h"
+
+#include <algorithm>
+#include <limits>
+
+#include "engine/checks.h"
+#include "engine/parallel.h"
+
+namespace dem {
+
+void PairContacts::resize(std::size_t n) {
+  key.resize(n);
+  i.resize(n);
+  j.resize(n);
+  constants.resize(n);
+  history.resize(n);
+  overlap.resize(n);
+  work.resize(n);
+  elastic.resize(n);
+  force.resize(n);
+  torque_i.resize(n);
+  torque_j.resize(n);
+}
+
+void WallContacts::resize(std::size_t n) {
+  key.resize(n);
+  particle.resize(n);
+  wall.resize(n);
+  feature.resize(n);
+  constants.resize(n);
+  history.resize(n);
+  overlap.resize(n);
+  work.resize(n);
+  elastic.resize(n);
+  point.resize(n);
+  force.resize(n);
+  torque.resize(n);
+  rolling_torque.resize(n);
+}
+
+namespace {
+
+bool overlapping(const State& s, ParticleIndex a, ParticleIndex b) {
+  const Real reach = s.radius[a] + s.radius[b];
+  return (s.position[a] - s.position[b]).squaredNorm() < reach * reach;
+}
+
+/// Index of `key` in the ascending `keys`, or -1.
+std::ptrdiff_t find_key(const std::vector<std::uint64_t>& keys, std::uint64_t key) {
+  const auto it = std::lower_bound(keys.begin(), keys.end(), key);
+  return (it != keys.end() && *it == key) ? it - keys.begin() : -1;
+}
+
+}  // namespace
+
+Real live_dissipation(const std::vector<Real>& work, const std::vector<Real>& elastic) {
+  return block_sum<Real>(work.size(), [&](std::size_t k) { return work[k] - elastic[k]; });
+}
+
+Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& candidates, const MaterialTable& materials,
+                          PairContacts& contacts, ContactWorkspace& work) {
+  const std::size_t n = candidates.row_count();
+  DEM_ASSERT(n == s.size());
+  work.count.resize(n);
+  parallel_for(n, [&](std::size_t a) {
+    std::uint32_t c = 0;
+    for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k)
+      c += overlapping(s, static_cast<ParticleIndex>(a), candidates.partner[k]) ? 1 : 0;
+    work.count[a] = c;
+  });
+  exclusive_scan(work.count, work.offset);
+  PairContacts& fresh = work.pairs;
+  fresh.resize(work.offset[n]);
+  parallel_for(n, [&](std::size_t a) {
+    std::uint32_t slot = work.offset[a];
+    for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
+      const ParticleIndex b = candidates.partner[k];
+      if (!overlapping(s, static_cast<ParticleIndex>(a), b)) continue;
+      // Slots follow ids; with slots in id order a row of ascending partners is ascending in key.
+      const bool a_first = s.id[a] < s.id[b];
+      fresh.i[slot] = a_first ? static_cast<ParticleIndex>(a) : b;
+      fresh.j[slot] = a_first ? b : static_cast<ParticleIndex>(a);
+      fresh.key[slot] = pair_key(s.id[a], s.id[b]);
+      ++slot;
+    }
+  });
+  DEM_VALIDATE(std::is_sorted(fresh.key.begin(), fresh.key.end()));
+  parallel_for(fresh.size(), [&](std::size_t k) {
+    const std::ptrdiff_t old = find_key(contacts.key, fresh.key[k]);
+    if (old >= 0) {
+      fresh.constants[k] = contacts.constants[old];
+      fresh.history[k] = contacts.history[old];
+      fresh.work[k] = contacts.work[old];
+      fresh.elastic[k] = contacts.elastic[old];
+      return;
+    }
+    const ParticleIndex a = fresh.i[k], b = fresh.j[k];
+    const EffectiveMasses m = effective_masses(s.inv_mass[a], s.inv_inertia[a], s.radius[a], s.inv_mass[b],
+                                               s.inv_inertia[b], s.radius[b]);
+    fresh.constants[k] = materials.constants(materials.pair_class(s.material[a], s.material[b]), m);
+    fresh.history[k] = ContactHistory{};
+    fresh.work[k] = 0;
+    fresh.elastic[k] = 0;
+  });
+  // What the ended contacts dissipated: all old contacts minus the ones carried over.
+  const Real ended = live_dissipation(contacts.work, contacts.elastic) - live_dissipation(fresh.work, fresh.elastic);
+  std::swap(contacts, fresh);
+  return ended;
+}
+
+Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTable& materials, WallContacts& contacts,
+                          ContactWorkspace& work, std::vector<std::uint32_t>& wall_start) {
+  const std::size_t n = s.size();
+  work.count.resize(n);
+  parallel_for(n, [&](std::size_t p) {
+    std::uint32_t c = 0;
+    WallTouch touch;
+    for (std::size_t w = 0; w < walls.count(); ++w)
+      for (std::uint32_t f = 0; f < walls.feature_count(w); ++f)
+        c += walls.touch(w, f, s.position[p], s.radius[p], touch) ? 1 : 0;
+    work.count[p] = c;
+  });
+  exclusive_scan(work.count, wall_start);
+  WallContacts& fresh = work.walls;
+  fresh.resize(wall_start[n]);
+  parallel_for(n, [&](std::size_t p) {
+    std::uint32_t slot = wall_start[p];
+    WallTouch touch;
+    for (std::size_t w = 0; w < walls.count(); ++w)
+      for (std::uint32_t f = 0; f < walls.feature_count(w); ++f) {
+        if (!walls.touch(w, f, s.position[p], s.radius[p], touch)) continue;
+        fresh.key[slot] = wall_key(s.id[p], static_cast<std::uint32_t>(w), f);
+        fresh.particle[slot] = static_cast<ParticleIndex>(p);
+        fresh.wall[slot] = static_cast<std::uint32_t>(w);
+        fresh.feature[slot] = f;
+        const std::ptrdiff_t old = find_key(contacts.key, fresh.key[slot]);
+        if (old >= 0) {
+          fresh.constants[slot] = contacts.constants[old];
+          fresh.history[slot] = contacts.history[old];
+          fresh.work[slot] = contacts.work[old];
+          fresh.elastic[slot] = contacts.elastic[old];
+        } else {
+          const EffectiveMasses m = effective_masses(s.inv_mass[p], s.inv_inertia[p], s.radius[p], 0, 0,
+                                                     std::numeric_limits<Real>::infinity());
+          fresh.constants[slot] = materials.constants(materials.pair_class(s.material[p], walls.material(w)), m);
+          fresh.history[slot] = ContactHistory{};
+          fresh.work[slot] = 0;
+          fresh.elastic[slot] = 0;
+        }
+        ++slot;
+      }
+  });
+  DEM_VALIDATE(std::is_sorted(fresh.key.begin(), fresh.key.end()));
+  const Real ended = live_dissipation(contacts.work, contacts.elastic) - live_dissipation(fresh.work, fresh.elastic);
+  std::swap(contacts, fresh);
+  return ended;
+}
+
+void build_pair_adjacency(std::size_t particle_count, const PairContacts& contacts, ContactAdjacency& adjacency) {
+  auto& start = adjacency.pair_start;
+  start.assign(particle_count + 1, 0);
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    ++start[contacts.i[k] + 1];
+    ++start[contacts.j[k] + 1];
+  }
+  for (std::size_t p = 0; p < particle_count; ++p) start[p + 1] += start[p];
+  adjacency.pair_entry.resize(start[particle_count]);
+  // Contacts are sorted by (smaller id, larger id): walking them in order appends, for every
+  // particle, first its smaller-id partners ascending, then its larger-id partners ascending.
+  auto& cursor = adjacency.cursor;
+  cursor.assign(start.begin(), start.end() - 1);
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    adjacency.pair_entry[cursor[contacts.i[k]]++] = static_cast<std::uint32_t>(k << 1);
+    adjacency.pair_entry[cursor[contacts.j[k]]++] = static_cast<std::uint32_t>((k << 1) | 1);
+  }
+}
+
+}  // namespace dem

@@ -1,0 +1,88 @@
+#pragma once
+// Contacts from candidate pairs and walls. Both lists are structures of arrays sorted by a 64-bit key
+// (types.h: pair_key, wall_key); a new list inherits history (springs, modes) and per-contact
+// constants from the old one by key lookup, so history survives grid rebuilds unchanged.
+// Reads: positions, radii, masses (State), candidate pairs, walls. Writes: the contact lists and
+// the per-particle adjacency used to gather forces.
+// Threading: counts, scan and fills are per row (particle), each writing only its own range, so the
+// lists are identical for any thread count.
+#include <cstdint>
+#include <vector>
+
+#include "broadphase/candidate_pairs.h"
+#include "engine/contact_law.h"
+#include "engine/materials.h"
+#include "engine/state.h"
+#include "engine/walls.h"
+
+namespace dem {
+
+struct PairContacts {
+  std::vector<std::uint64_t> key;   // pair_key(id_i, id_j), ascending
+  std::vector<ParticleIndex> i, j;  // slots, id_i < id_j
+  std::vector<LawConstants> constants;
+  std::vector<ContactHistory> history;
+  std::vector<Real> overlap;        // at the last force evaluation [m]
+  std::vector<Real> work;           // work done on the contact since it formed [J]
+  std::vector<Real> elastic;        // energy in its springs at the last evaluation [J]
+  std::vector<Vec3> force;          // on i; j gets the negative [N]
+  std::vector<Vec3> torque_i;       // [N m]
+  std::vector<Vec3> torque_j;       // [N m]
+
+  std::size_t size() const { return key.size(); }
+  void resize(std::size_t n);
+};
+
+struct WallContacts {
+  std::vector<std::uint64_t> key;  // wall_key(id, wall, feature), ascending
+  std::vector<ParticleIndex> particle;
+  std::vector<std::uint32_t> wall;
+  std::vector<std::uint32_t> feature;
+  std::vector<LawConstants> constants;
+  std::vector<ContactHistory> history;
+  std::vector<Real> overlap;  // [m]
+  std::vector<Real> work;     // work done on the contact since it formed [J]
+  std::vector<Real> elastic;  // energy in its springs at the last evaluation [J]
+  std::vector<Vec3> point;    // contact point [m]
+  std::vector<Vec3> force;    // on the particle; the wall gets the negative [N]
+  std::vector<Vec3> torque;   // on the particle [N m]
+  std::vector<Vec3> rolling_torque;  // on the particle, the wall gets the negative [N m]
+
+  std::size_t size() const { return key.size(); }
+  void resize(std::size_t n);
+};
+
+/// Per-particle lists of contact slots for the gather, in ascending partner order:
+/// pair entries encode (contact << 1) | side, side 1 meaning the particle is j.
+struct ContactAdjacency {
+  std::vector<std::uint32_t> pair_start;  // size n + 1
+  std::vector<std::uint32_t> pair_entry;
+  std::vector<std::uint32_t> wall_start;  // size n + 1: wall contacts of particle p are a slot range
+  std::vector<std::uint32_t> cursor;      // scratch of build_pair_adjacency
+};
+
+/// Scratch buffers reused between calls (no allocation after warm-up).
+struct ContactWorkspace {
+  std::vector<std::uint32_t> count;
+  std::vector<std::uint32_t> offset;
+  PairContacts pairs;
+  WallContacts walls;
+};
+
+/// Replaces `contacts` by the overlapping candidate pairs, inheriting history by key. Returns the
+/// energy dissipated by the contacts that ended (their work minus what their springs held) [J].
+Real update_pair_contacts(const State& state, const broadphase::CandidatePairs& candidates,
+                          const MaterialTable& materials, PairContacts& contacts, ContactWorkspace& work);
+
+/// Replaces `contacts` by the current particle-wall overlaps, inheriting history by key. Returns the
+/// energy dissipated by the contacts that ended [J].
+Real update_wall_contacts(const State& state, const Walls& walls, const MaterialTable& materials,
+                          WallContacts& contacts, ContactWorkspace& work, std::vector<std::uint32_t>& wall_start);
+
+/// Energy dissipated so far by the live contacts of a list: sum of work - elastic [J].
+Real live_dissipation(const std::vector<Real>& work, const std::vector<Real>& elastic);
+
+/// Builds the pair part of the gather adjacency (ascending partner order per particle).
+void build_pair_adjacency(std::size_t particle_count, const PairContacts& contacts, ContactAdjacency& adjacency);
+
+}  // namespace dem

@@ -1,0 +1,154 @@
+#include "engine/forces.h"
+
+#include <cmath>
+
+#include "engine/parallel.h"
+
+namespace dem {
+namespace {
+
+template <class Law>
+void pair_forces(const State& s, PairContacts& c, Real h) {
+  parallel_for(c.size(), [&](std::size_t k) {
+    const ParticleIndex i = c.i[k], j = c.j[k];
+    const Vec3 d = s.position[i] - s.position[j];
+    const Real dist = d.norm();
+    // Coincident centres have no normal; any fixed choice keeps runs deterministic.
+    const Vec3 n = dist > 0 ? Vec3(d / dist) : Vec3(Vec3::UnitX());
+    const Real overlap = s.radius[i] + s.radius[j] - dist;
+    const Real arm_i = s.radius[i] - 0.5 * overlap, arm_j = s.radius[j] - 0.5 * overlap;
+    Vec3 u = s.velocity[i] - s.velocity[j];
+    Vec3 w_rel = Vec3::Zero();
+    if constexpr (Law::uses_rotation) {
+      // Contact-point velocities: omega_i x (-a_i n) - omega_j x (a_j n) (PHYSICS.md 1.3).
+      u -= (arm_i * s.angular_velocity[i] + arm_j * s.angular_velocity[j]).cross(n);
+      w_rel = s.angular_velocity[i] - s.angular_velocity[j];
+      w_rel -= w_rel.dot(n) * n;
+    }
+    ContactKinematics kin;
+    kin.normal = n;
+    kin.overlap = overlap;
+    kin.overlap_rate = -u.dot(n);
+    kin.tangential_velocity = u + kin.overlap_rate * n;
+    kin.rolling_velocity = w_rel;
+    const ContactResponse r = Law::evaluate(c.constants[k], kin, c.history[k], h);
+    c.overlap[k] = overlap;
+    c.work[k] += h * r.power;
+    c.elastic[k] = r.elastic;
+    c.force[k] = r.force;
+    if constexpr (Law::uses_rotation) {
+      const Vec3 lever = n.cross(r.force);  // only the tangential part of the force has a moment
+      c.torque_i[k] = -arm_i * lever + r.rolling_torque;
+      c.torque_j[k] = -arm_j * lever - r.rolling_torque;
+    }
+  });
+}
+
+template <class Law>
+void wall_forces(const State& s, const Walls& walls, WallContacts& c, Real h) {
+  parallel_for(c.size(), [&](std::size_t k) {
+    const ParticleIndex p = c.particle[k];
+    const std::uint32_t w = c.wall[k];
+    WallTouch touch;
+    if (!walls.touch(w, c.feature[k], s.position[p], s.radius[p], touch)) {
+      // Contacts are rebuilt at these very positions, so this only guards round-off at the edge.
+      touch.overlap = 0;
+    }
+    const Vec3& n = touch.normal;
+    const Real arm = s.radius[p] - 0.5 * touch.overlap;
+    const Vec3 point = s.position[p] - arm * n;
+    Vec3 u = s.velocity[p] - walls.velocity_at(w, point);
+    Vec3 w_rel = Vec3::Zero();
+    if constexpr (Law::uses_rotation) {
+      u -= arm * s.angular_velocity[p].cross(n);
+      w_rel = s.angular_velocity[p] - walls.angular_velocity(w);
+      w_rel -= w_rel.dot(n) * n;
+    }
+    ContactKinematics kin;
+    kin.normal = n;
+    kin.overlap = touch.overlap;
+    kin.overlap_rate = -u.dot(n);
+    kin.tangential_velocity = u + kin.overlap_rate * n;
+    kin.rolling_velocity = w_rel;
+    const ContactResponse r = Law::evaluate(c.constants[k], kin, c.history[k], h);
+    c.overlap[k] = touch.overlap;
+    c.work[k] += h * r.power;
+    c.elastic[k] = r.elastic;
+    c.point[k] = point;
+    c.force[k] = r.force;
+    if constexpr (Law::uses_rotation) {
+      c.torque[k] = -arm * n.cross(r.force) + r.rolling_torque;
+      c.rolling_torque[k] = r.rolling_torque;
+    } else {
+      c.rolling_torque[k].setZero();
+    }
+  });
+}
+
+template <class Law>
+ForceKernels kernels_for() {
+  return ForceKernels{&pair_forces<Law>, &wall_forces<Law>, Law::uses_rotation};
+}
+
+template <Separation Sep, bool Friction>
+ForceKernels select_rolling(RollingKind rolling) {
+  switch (rolling) {
+    case RollingKind::none: return kernels_for<LinearSpringDashpot<Sep, Friction, RollingKind::none>>();
+    case RollingKind::standard: return kernels_for<LinearSpringDashpot<Sep, Friction, RollingKind::standard>>();
+    case RollingKind::seed: return kernels_for<LinearSpringDashpot<Sep, Friction, RollingKind::seed>>();
+  }
+  return {};
+}
+
+template <Separation Sep>
+ForceKernels select_friction(bool friction, RollingKind rolling) {
+  return friction ? select_rolling<Sep, true>(rolling) : select_rolling<Sep, false>(rolling);
+}
+
+}  // namespace
+
+ForceKernels select_force_kernels(Separation separation, bool friction, RollingKind rolling) {
+  return separation == Separation::force_zero ? select_friction<Separation::force_zero>(friction, rolling)
+                                              : select_friction<Separation::overlap>(friction, rolling);
+}
+
+void gather_forces(State& s, const PairContacts& pairs, const WallContacts& walls, const ContactAdjacency& adjacency,
+                   bool rotation, int dimension) {
+  parallel_for(s.size(), [&](std::size_t p) {
+    Vec3 f = Vec3::Zero(), t = Vec3::Zero();
+    for (std::uint32_t e = adjacency.pair_start[p]; e < adjacency.pair_start[p + 1]; ++e) {
+      const std::uint32_t entry = adjacency.pair_entry[e];
+      const std::uint32_t k = entry >> 1;
+      if ((entry & 1) == 0) {
+        f += pairs.force[k];
+        if (rotation) t += pairs.torque_i[k];
+      } else {
+        f -= pairs.force[k];
+        if (rotation) t += pairs.torque_j[k];
+      }
+    }
+    for (std::uint32_t k = adjacency.wall_start[p]; k < adjacency.wall_start[p + 1]; ++k) {
+      f += walls.force[k];
+      if (rotation) t += walls.torque[k];
+    }
+    if (dimension == 2) {  // discs: no motion out of the xy plane, spin only about z
+      f.z() = 0;
+      t.x() = 0;
+      t.y() = 0;
+    }
+    s.force[p] = f;
+    s.torque[p] = t;
+  });
+}
+
+void accumulate_wall_loads(const Walls& walls, const WallContacts& c, std::vector<WallLoad>& loads) {
+  loads.assign(walls.count(), WallLoad{});
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    WallLoad& load = loads[c.wall[k]];
+    load.force -= c.force[k];
+    load.torque -= (c.point[k] - walls.rotation_center(c.wall[k])).cross(c.force[k]);
+    load.torque -= c.rolling_torque[k];
+  }
+}
+
+}  // namespace dem

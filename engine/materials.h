@@ -1,0 +1,81 @@
+#pragma once
+// Materials and the dense per-pair table of contact parameters, built once at set-up.
+// Damping given as restitution or Tsuji's alpha is resolved to a damping ratio here (restitution
+// with the scene's separation convention), so a contact only needs its effective masses to get c.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "engine/config.h"
+
+namespace dem {
+
+/// Parameters of one material pair with damping resolved to ratio, coefficient or gamma.
+struct PairParams {
+  Real k_n = 0;           // [N/m]
+  Damping normal_damping;
+  Real k_t = 0;           // [N/m]
+  Damping tangential_damping;
+  Real mu = 0, mu_s = 0;  // sliding and static friction [-]
+  Real mu_r = 0, mu_rs = 0;  // kinetic and static rolling resistance [-]
+  Real k_r = -1;          // [N m/rad]; negative: k_t R*^2
+};
+
+/// Everything the contact law needs for one contact, assembled from PairParams and the contact's
+/// effective masses (see MaterialTable::constants).
+struct LawConstants {
+  Real k_n, c_n;        // normal spring [N/m] and dashpot [N s/m]
+  Real k_t, c_t;        // tangential spring and dashpot
+  Real mu, mu_s;        // sliding and static friction
+  Real mu_r, mu_rs;     // rolling resistance, kinetic and static
+  Real k_r, c_r;        // rolling spring [N m/rad] and dashpot [N m s/rad]
+  Real r_star;          // effective radius [m]
+};
+
+/// Effective masses of a contact (PHYSICS.md 1.3): m*, tangential m_t, I* and R*.
+struct EffectiveMasses {
+  Real m_star;  // [kg]
+  Real m_t;     // [kg]
+  Real i_star;  // [kg m^2]
+  Real r_star;  // [m]
+};
+
+/// Effective masses of a pair from inverse masses, inverse inertias and radii; a wall has inverse
+/// mass and inertia 0 and radius infinity.
+EffectiveMasses effective_masses(Real inv_m_i, Real inv_i_i, Real r_i, Real inv_m_j, Real inv_i_j, Real r_j);
+
+/// Damping coefficient c [N s/m] of `d` for spring k and effective mass m (gamma uses gamma_mass).
+Real damping_coefficient(const Damping& d, Real k, Real m, Real gamma_mass);
+
+class MaterialTable {
+ public:
+  MaterialTable() = default;
+  MaterialTable(const std::vector<MaterialConfig>& materials, const std::vector<ContactConfig>& contacts,
+                Separation separation);
+
+  std::size_t material_count() const { return density_.size(); }
+  /// Index of a material by name, or -1.
+  int find(const std::string& name) const;
+  const std::string& name(std::uint16_t material) const { return names_[material]; }
+  Real density(std::uint16_t material) const { return density_[material]; }
+
+  std::uint16_t pair_class(std::uint16_t a, std::uint16_t b) const { return pair_class_[a * density_.size() + b]; }
+  const PairParams& params(std::uint16_t pair_class) const { return params_[pair_class]; }
+  std::size_t pair_class_count() const { return params_.size(); }
+
+  bool any_friction() const { return any_friction_; }
+  bool any_rolling() const { return any_rolling_; }
+
+  /// Constants of one contact of class `pair_class` with effective masses `m`.
+  LawConstants constants(std::uint16_t pair_class, const EffectiveMasses& m) const;
+
+ private:
+  std::vector<std::string> names_;
+  std::vector<Real> density_;
+  std::vector<std::uint16_t> pair_class_;  // dense material x material -> index into params_
+  std::vector<PairParams> params_;
+  bool any_friction_ = false;
+  bool any_rolling_ = false;
+};
+
+}  // namespace dem

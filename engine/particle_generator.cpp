@@ -1,0 +1,122 @@
+#include "engine/particle_generator.h"
+
+#include <cmath>
+#include <unordered_map>
+
+#include <Eigen/Geometry>
+
+namespace dem {
+namespace {
+
+double uniform01(std::uint64_t seed, std::uint64_t a, std::uint64_t b, std::uint64_t c) {
+  std::uint64_t z = seed;
+  for (std::uint64_t v : {a, b, c}) {
+    z += 0x9E3779B97F4A7C15ull + v;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    z ^= z >> 31;
+  }
+  return (static_cast<double>(z >> 11) + 0.5) * 0x1.0p-53;  // in (0, 1)
+}
+
+enum Purpose : std::uint64_t { size_draw = 1, place_x = 2, place_y = 3, place_z = 4 };
+
+double standard_normal(std::uint64_t seed, std::uint64_t particle, std::uint64_t attempt) {
+  const double u1 = uniform01(seed, particle, size_draw, 2 * attempt);
+  const double u2 = uniform01(seed, particle, size_draw, 2 * attempt + 1);
+  return std::sqrt(-2 * std::log(u1)) * std::cos(2 * pi * u2);  // Box-Muller
+}
+
+Real draw_radius(const GeneratorConfig& g, std::uint64_t particle) {
+  switch (g.distribution) {
+    case SizeDistribution::mono:
+      return g.mean;
+    case SizeDistribution::uniform:
+      return g.r_min + (g.r_max - g.r_min) * uniform01(g.seed, particle, size_draw, 0);
+    case SizeDistribution::normal:
+    case SizeDistribution::lognormal:
+      for (std::uint64_t attempt = 0; attempt < 10000; ++attempt) {  // truncation by rejection
+        const double z = standard_normal(g.seed, particle, attempt);
+        const Real r = g.distribution == SizeDistribution::normal ? g.mean + g.sigma * z : g.mean * std::exp(g.sigma * z);
+        if (r >= g.r_min && r <= g.r_max) return r;
+      }
+      return 0.5 * (g.r_min + g.r_max);
+  }
+  return g.mean;
+}
+
+/// Hashed cell grid of the placed particles for overlap queries.
+struct PlacementGrid {
+  Real cell;
+  std::unordered_map<std::uint64_t, std::vector<std::size_t>> cells;
+  static std::uint64_t key(std::int64_t x, std::int64_t y, std::int64_t z) {
+    return (static_cast<std::uint64_t>(x) * 73856093ull) ^ (static_cast<std::uint64_t>(y) * 19349663ull) ^
+           (static_cast<std::uint64_t>(z) * 83492791ull);
+  }
+  std::int64_t coord(Real v) const { return static_cast<std::int64_t>(std::floor(v / cell)); }
+  void insert(const Vec3& x, std::size_t p) { cells[key(coord(x.x()), coord(x.y()), coord(x.z()))].push_back(p); }
+  bool overlaps(const Vec3& x, Real r, const std::vector<ParticleConfig>& ps) const {
+    const std::int64_t cx = coord(x.x()), cy = coord(x.y()), cz = coord(x.z());
+    for (std::int64_t i = cx - 1; i <= cx + 1; ++i)
+      for (std::int64_t j = cy - 1; j <= cy + 1; ++j)
+        for (std::int64_t k = cz - 1; k <= cz + 1; ++k) {
+          const auto it = cells.find(key(i, j, k));
+          if (it == cells.end()) continue;
+          for (std::size_t p : it->second) {
+            const Real reach = r + ps[p].radius;
+            if ((ps[p].position - x).squaredNorm() < reach * reach) return true;
+          }
+        }
+    return false;
+  }
+};
+
+}  // namespace
+
+GeneratorResult generate_particles(const GeneratorConfig& g, std::vector<ParticleConfig>& particles) {
+  Real largest = g.r_max > 0 ? g.r_max : g.mean;
+  for (const auto& p : particles) largest = std::max(largest, p.radius);
+  PlacementGrid grid{2 * largest, {}};
+  for (std::size_t p = 0; p < particles.size(); ++p) grid.insert(particles[p].position, p);
+  const Vec3 axis = g.axis.normalized();
+  const Vec3 u = axis.unitOrthogonal(), v = axis.cross(u);
+  for (int n = 0; n < g.count; ++n) {
+    const Real r = draw_radius(g, static_cast<std::uint64_t>(n));
+    bool placed = false;
+    for (int attempt = 0; attempt < g.max_attempts && !placed; ++attempt) {
+      const auto a = static_cast<std::uint64_t>(attempt);
+      const double s1 = uniform01(g.seed, n, place_x, a), s2 = uniform01(g.seed, n, place_y, a),
+                   s3 = uniform01(g.seed, n, place_z, a);
+      Vec3 x;
+      if (g.region == GeneratorRegion::box) {
+        const Vec3 lo = g.min + Vec3::Constant(r), hi = g.max - Vec3::Constant(r);
+        const Vec3 room = hi - lo;
+        if (room.x() < 0 || room.y() < 0 || (g.dimension == 3 && room.z() < 0))
+          return {false, "the box is smaller than a particle of radius " + std::to_string(r)};
+        x = lo + Vec3(s1, s2, s3).cwiseProduct(hi - lo);
+      } else {
+        const Real rho_max = g.radius - r;
+        if (rho_max < 0) return {false, "the cylinder is narrower than a particle of radius " + std::to_string(r)};
+        const Real rho = rho_max * std::sqrt(s1), phi = 2 * pi * s2;
+        const Real half = std::max(Real{0}, 0.5 * g.length - r);
+        x = g.center + rho * (std::cos(phi) * u + std::sin(phi) * v) + (2 * s3 - 1) * half * axis;
+      }
+      if (g.dimension == 2) x.z() = 0;
+      if (grid.overlaps(x, r, particles)) continue;
+      ParticleConfig p;
+      p.position = x;
+      p.radius = r;
+      p.velocity = g.velocity;
+      p.material = g.material;
+      grid.insert(x, particles.size());
+      particles.push_back(p);
+      placed = true;
+    }
+    if (!placed)
+      return {false, "placed only " + std::to_string(n) + " of " + std::to_string(g.count) +
+                         " particles without overlap: enlarge the region, reduce count or raise max_attempts"};
+  }
+  return {};
+}
+
+}  // namespace dem

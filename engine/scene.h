@@ -1,0 +1,44 @@
+#pragma once
+// A scene: the world to build plus how to run it and what to write. Filled by scene_loader from a
+// TOML file (scenes/README.md documents every key) or in code by an embedding program.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "engine/config.h"
+
+namespace dem {
+
+struct RunSettings {
+  Real until = 1;                    // simulated end time [s]
+  Real stop_kinetic_energy = -1;     // stop once kinetic + rotational energy falls below this [J]; negative: off
+  Real stop_check_after = 0;         // earliest time the kinetic-energy stop applies [s]
+};
+
+struct OutputSettings {
+  Real interval = 0.01;              // series rows at the first sync time at or after each multiple [s]
+  Real snapshot_interval = -1;       // VTK snapshots [s]; negative: equal to interval; 0: none
+  std::string settled_file;          // when set, particles are written here (CSV) at the end
+};
+
+/// Where a particle came from, for error messages that point into the input.
+struct ParticleSource {
+  std::string file;
+  int line = 0;
+  int column = 0;
+  std::string field;  // e.g. "particles[3]" or "generators[0]"
+};
+
+struct Scene {
+  std::string name;                  // default: the file's stem
+  std::string file;                  // the scene file's path
+  WorldConfig world;
+  RunSettings run;
+  OutputSettings output;
+  Real max_initial_overlap = 0.01;   // relative to the smaller radius of a pair [-]
+  std::vector<ParticleSource> sources;  // one per particle of world.particles
+  std::vector<std::uint64_t> seeds;     // generator seeds, for provenance
+  std::uint64_t physics_hash = 0;       // hash of the resolved scene text, for checkpoints
+};
+
+}  // namespace dem

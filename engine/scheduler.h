@@ -1,0 +1,41 @@
+#pragma once
+// Time keeping (DESIGN.md, Time). A particle's step is dt_base * 2^level with an integer level in
+// [level_min, level_max]; sync intervals last T = dt_base * 2^level_max. Time is the count of
+// completed sync intervals plus an integer tick of the finest step inside the current one, never an
+// accumulated float. Under the fixed control every particle is at level 0 and T = dt.
+#include <cstdint>
+
+#include "engine/config.h"
+
+namespace dem {
+
+struct Clock {
+  std::int64_t interval = 0;  // completed sync intervals
+  std::int64_t tick = 0;      // finest steps into the current interval
+};
+
+class Scheduler {
+ public:
+  Scheduler() = default;
+  explicit Scheduler(const IntegratorConfig& config);
+
+  int level_min() const { return level_min_; }
+  int level_max() const { return level_max_; }
+  Real dt_base() const { return dt_base_; }
+  /// Length of a sync interval T [s].
+  Real sync_interval() const { return sync_interval_; }
+  /// Step of a level [s].
+  Real step_of_level(int level) const;
+  /// Finest steps per sync interval, 2^(level_max - level_min).
+  std::int64_t ticks_per_interval() const { return std::int64_t{1} << (level_max_ - level_min_); }
+  /// Physical time of a clock reading [s].
+  Real time(const Clock& clock) const;
+
+ private:
+  int level_min_ = 0;
+  int level_max_ = 0;
+  Real dt_base_ = 0;
+  Real sync_interval_ = 0;
+};
+
+}  // namespace dem

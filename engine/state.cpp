@@ -1,0 +1,24 @@
+#include "engine/state.h"
+
+namespace dem {
+
+ParticleIndex State::add(const Vec3& x, const Vec3& v, const Vec3& w, Real r, Real inv_m, Real inv_i,
+                         std::uint16_t mat) {
+  const auto slot = static_cast<ParticleIndex>(size());
+  const auto new_id = static_cast<ParticleId>(index_of_id.size());
+  id.push_back(new_id);
+  index_of_id.push_back(slot);
+  position.push_back(x);
+  velocity.push_back(v);
+  angular_velocity.push_back(w);
+  force.push_back(Vec3::Zero());
+  torque.push_back(Vec3::Zero());
+  radius.push_back(r);
+  inv_mass.push_back(inv_m);
+  inv_inertia.push_back(inv_i);
+  material.push_back(mat);
+  level.push_back(0);
+  return slot;
+}
+
+}  // namespace dem

@@ -1,0 +1,39 @@
+#pragma once
+// Per-particle state as a structure of arrays (DESIGN.md, State). Hot arrays are one std::vector per
+// field; a stage touches only those it needs. `id` holds the stable ParticleId of each slot and
+// `index_of_id` the inverse map; both change only in functions of this file.
+#include <cstdint>
+#include <vector>
+
+#include "engine/types.h"
+
+namespace dem {
+
+struct State {
+  std::vector<ParticleId> id;
+  std::vector<Vec3> position;          // [m]
+  std::vector<Vec3> velocity;          // [m/s]
+  std::vector<Vec3> angular_velocity;  // [rad/s]; untouched when the scene has no rotation
+  std::vector<Vec3> force;             // total force of the last evaluation [N]
+  std::vector<Vec3> torque;            // total torque of the last evaluation [N m]
+  std::vector<Real> radius;            // [m]
+  std::vector<Real> inv_mass;          // [1/kg]; 0 for immovable particles
+  std::vector<Real> inv_inertia;       // [1/(kg m^2)]
+  std::vector<std::uint16_t> material;
+  std::vector<std::int8_t> level;      // step = dt_base * 2^level; 0 under the fixed control
+  std::vector<ParticleIndex> index_of_id;
+
+  std::size_t size() const { return position.size(); }
+
+  /// Appends one particle with the next free id and returns its slot.
+  ParticleIndex add(const Vec3& x, const Vec3& v, const Vec3& w, Real r, Real inv_m, Real inv_i,
+                    std::uint16_t mat);
+};
+
+/// Mass treated as infinite in momentum and energy audits (PHYSICS.md 1.6: a 1e20 kg "wall" swamps
+/// round-off of the real particles).
+inline constexpr Real audit_mass_limit = 1e15;  // [kg]
+
+inline bool is_audited(Real inv_mass) { return inv_mass * audit_mass_limit > 1; }
+
+}  // namespace dem

@@ -1,0 +1,65 @@
+#pragma once
+// Walls with prescribed motion: planes, finite boxes (container or solid) and the inside of a
+// cylinder. A wall's geometry at time t is its t = 0 geometry translated by v t and rotated by
+// Omega t about its rotation centre (exact in t, no accumulated drift). Walls have infinite mass.
+// Threading: after set_time, all queries are const and safe from any thread.
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "engine/config.h"
+#include "engine/materials.h"
+
+namespace dem {
+
+/// Geometry of one particle-wall contact: unit normal from the wall into the particle and overlap.
+struct WallTouch {
+  Vec3 normal;   // from the wall towards the particle centre
+  Real overlap;  // delta > 0 in contact [m]
+};
+
+/// Resultant load of the particles on one wall.
+struct WallLoad {
+  Vec3 force = Vec3::Zero();   // [N]
+  Vec3 torque = Vec3::Zero();  // about the wall's current rotation centre [N m]
+};
+
+class Walls {
+ public:
+  Walls() = default;
+  Walls(const std::vector<WallConfig>& walls, const MaterialTable& materials);
+
+  std::size_t count() const { return config_.size(); }
+  const WallConfig& config(std::size_t w) const { return config_[w]; }
+  std::uint16_t material(std::size_t w) const { return material_[w]; }
+  /// Features a particle can touch at once: 6 faces inside a box, else 1.
+  std::uint32_t feature_count(std::size_t w) const;
+
+  /// Moves every wall to its pose at time t [s].
+  void set_time(Real t);
+
+  /// Contact of a sphere (centre x, radius r) with feature f of wall w; false if not touching.
+  bool touch(std::size_t w, std::uint32_t f, const Vec3& x, Real r, WallTouch& out) const;
+  /// Velocity of the wall's material at point p [m/s].
+  Vec3 velocity_at(std::size_t w, const Vec3& p) const;
+  const Vec3& angular_velocity(std::size_t w) const { return config_[w].angular_velocity; }
+  /// Current rotation centre (torques are reported about it).
+  const Vec3& rotation_center(std::size_t w) const { return pose_[w].center; }
+  /// Current pose: a point of the geometry (plane point, box centre, cylinder axis point).
+  const Vec3& point(std::size_t w) const { return pose_[w].point; }
+  const Eigen::Matrix3d& rotation(std::size_t w) const { return pose_[w].rotation; }
+
+ private:
+  struct Pose {
+    Vec3 center;               // rotation centre now
+    Vec3 point;                // the config's `point` now
+    Eigen::Matrix3d rotation;  // rotation since t = 0
+    Vec3 direction;            // plane normal or cylinder axis now
+  };
+  std::vector<WallConfig> config_;
+  std::vector<std::uint16_t> material_;
+  std::vector<Pose> pose_;
+};
+
+}  // namespace dem

@@ -1,0 +1,216 @@
+#include "engine/world.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include <tbb/info.h>
+#include <tbb/task_arena.h>
+
+#include "engine/checkpoint.h"
+#include "engine/integrators.h"
+#include "engine/parallel.h"
+
+namespace dem {
+namespace {
+
+RollingKind rolling_kind(const MaterialTable& m, RollingMode mode) {
+  if (!m.any_rolling()) return RollingKind::none;
+  return mode == RollingMode::seed ? RollingKind::seed : RollingKind::standard;
+}
+
+}  // namespace
+
+World::World(const WorldConfig& config)
+    : config_(config),
+      materials_(config.materials, config.contacts, config.model.separation),
+      walls_(config.walls, materials_),
+      scheduler_(config.integrator) {
+  if (config_.model.dimension != 2 && config_.model.dimension != 3)
+    throw std::invalid_argument("model.dimension must be 2 or 3");
+  threads_ = config_.threads > 0 ? config_.threads : tbb::info::default_concurrency();
+  arena_ = std::make_unique<tbb::task_arena>(threads_);
+  gravity_ = config_.model.gravity;
+  kernels_ = select_force_kernels(config_.model.separation, materials_.any_friction(),
+                                  rolling_kind(materials_, config_.model.rolling_mode));
+  add_particles();
+  if (config_.broadphase.skin >= 0) {
+    skin_ = config_.broadphase.skin;
+  } else if (state_.size() > 0) {
+    Real r_min = state_.radius[0];
+    for (Real r : state_.radius) r_min = std::min(r_min, r);
+    skin_ = 0.1 * r_min;
+  }
+  arena_->execute([&] { evaluate_forces(0, true); });
+}
+
+World::~World() = default;
+
+void World::add_particles() {
+  const bool disc = config_.model.dimension == 2;
+  const Real kappa = disc ? 0.5 : 0.4;  // inertia I = kappa m R^2
+  for (const ParticleConfig& p : config_.particles) {
+    const int mat = materials_.find(p.material);
+    if (mat < 0) throw std::invalid_argument("particle names an unknown material '" + p.material + "'");
+    const Real volume = disc ? pi * p.radius * p.radius * config_.model.thickness
+                             : 4.0 / 3.0 * pi * p.radius * p.radius * p.radius;
+    const Real density = p.density > 0 ? p.density : materials_.density(static_cast<std::uint16_t>(mat));
+    const Real mass = p.mass > 0 ? p.mass : density * volume;
+    const Real inv_mass = std::isinf(mass) ? 0 : 1 / mass;
+    const Real inv_inertia = inv_mass / (kappa * p.radius * p.radius);
+    Vec3 x = p.position, v = p.velocity, w = p.angular_velocity;
+    if (disc) {
+      x.z() = 0;
+      v.z() = 0;
+      w.x() = w.y() = 0;
+    }
+    state_.add(x, v, w, p.radius, inv_mass, inv_inertia, static_cast<std::uint16_t>(mat));
+  }
+}
+
+void World::evaluate_forces(Real h, bool force_rebuild) {
+  const std::size_t n = state_.size();
+  if (force_rebuild || skin_tracker_.needs_rebuild(state_.position, skin_)) {
+    if (config_.broadphase.use_kd_tree)
+      kd_tree_.find_pairs(state_.position, state_.radius, skin_, candidates_);
+    else
+      grid_.find_pairs(state_.position, state_.radius, skin_, candidates_);
+    skin_tracker_.reset(state_.position);
+    ++counters_.pair_rebuilds;
+  }
+  ended_dissipation_ += update_pair_contacts(state_, candidates_, materials_, pairs_, workspace_);
+  build_pair_adjacency(n, pairs_, adjacency_);
+  ended_dissipation_ +=
+      update_wall_contacts(state_, walls_, materials_, wall_contacts_, workspace_, adjacency_.wall_start);
+  kernels_.pair_forces(state_, pairs_, h);
+  kernels_.wall_forces(state_, walls_, wall_contacts_, h);
+  gather_forces(state_, pairs_, wall_contacts_, adjacency_, kernels_.uses_rotation, config_.model.dimension);
+  counters_.force_evaluations += n;
+}
+
+StepStatus World::advance_sync_interval() {
+  // Fixed control: one velocity Verlet step of dt per sync interval, every particle at level 0.
+  const Real h = scheduler_.sync_interval();
+  const bool rotation = kernels_.uses_rotation;
+  const int dim = config_.model.dimension;
+  bool finite = true;
+  arena_->execute([&] {
+    kick(state_, 0.5 * h, gravity_, rotation, dim);
+    drift(state_, h);
+    ++clock_.interval;
+    walls_.set_time(time());
+    evaluate_forces(h, false);
+    kick(state_, 0.5 * h, gravity_, rotation, dim);
+    finite = state_is_finite();
+  });
+  const std::uint64_t n = state_.size();
+  counters_.sync_intervals += 1;
+  counters_.particle_steps += n;
+  counters_.accepted_steps += n;
+  return finite ? StepStatus::ok : StepStatus::non_finite;
+}
+
+StepStatus World::run_until(Real t) {
+  while (time() < t) {
+    const StepStatus status = advance_sync_interval();
+    if (status != StepStatus::ok) return status;
+  }
+  return StepStatus::ok;
+}
+
+bool World::state_is_finite() const {
+  const std::size_t bad = block_sum<std::size_t>(state_.size(), [&](std::size_t p) -> std::size_t {
+    return state_.position[p].allFinite() && state_.velocity[p].allFinite() &&
+                   state_.angular_velocity[p].allFinite()
+               ? 0
+               : 1;
+  });
+  return bad == 0;
+}
+
+WallLoad World::wall_load(std::size_t w) const {
+  std::vector<WallLoad> loads;
+  accumulate_wall_loads(walls_, wall_contacts_, loads);
+  return loads.at(w);
+}
+
+Energies World::energies() const {
+  Energies e;
+  const State& s = state_;
+  arena_->execute([&] {
+    e.kinetic = block_sum<Real>(s.size(), [&](std::size_t p) {
+      return is_audited(s.inv_mass[p]) ? 0.5 * s.velocity[p].squaredNorm() / s.inv_mass[p] : 0.0;
+    });
+    if (kernels_.uses_rotation)
+      e.rotational = block_sum<Real>(s.size(), [&](std::size_t p) {
+        return is_audited(s.inv_mass[p]) ? 0.5 * s.angular_velocity[p].squaredNorm() / s.inv_inertia[p] : 0.0;
+      });
+    e.potential = block_sum<Real>(s.size(), [&](std::size_t p) {
+      return is_audited(s.inv_mass[p]) ? -gravity_.dot(s.position[p]) / s.inv_mass[p] : 0.0;
+    });
+    e.elastic = block_sum<Real>(pairs_.size(), [&](std::size_t k) { return pairs_.elastic[k]; }) +
+                block_sum<Real>(wall_contacts_.size(), [&](std::size_t k) { return wall_contacts_.elastic[k]; });
+  });
+  return e;
+}
+
+Vec3 World::linear_momentum() const {
+  Vec3 total = Vec3::Zero();
+  arena_->execute([&] {
+    total = block_sum<Vec3>(
+        state_.size(),
+        [&](std::size_t p) -> Vec3 {
+          return is_audited(state_.inv_mass[p]) ? Vec3(state_.velocity[p] / state_.inv_mass[p]) : Vec3(Vec3::Zero());
+        },
+        Vec3::Zero());
+  });
+  return total;
+}
+
+Real World::dissipated_energy() const {
+  Real live = 0;
+  arena_->execute([&] {
+    live = live_dissipation(pairs_.work, pairs_.elastic) + live_dissipation(wall_contacts_.work, wall_contacts_.elastic);
+  });
+  return ended_dissipation_ + live;
+}
+
+std::uint64_t World::state_hash() const { return dem::state_hash(state_, pairs_, wall_contacts_, clock_); }
+
+}  // namespace dem
+
+namespace dem {
+namespace {
+
+template <class T>
+std::size_t bytes(const std::vector<T>& v) {
+  return v.capacity() * sizeof(T);
+}
+
+std::size_t bytes(const PairContacts& c) {
+  return bytes(c.key) + bytes(c.i) + bytes(c.j) + bytes(c.constants) + bytes(c.history) + bytes(c.overlap) + bytes(c.work) + bytes(c.elastic) +
+         bytes(c.force) + bytes(c.torque_i) + bytes(c.torque_j);
+}
+
+std::size_t bytes(const WallContacts& c) {
+  return bytes(c.key) + bytes(c.particle) + bytes(c.wall) + bytes(c.feature) + bytes(c.constants) +
+         bytes(c.history) + bytes(c.overlap) + bytes(c.work) + bytes(c.elastic) + bytes(c.point) + bytes(c.force) + bytes(c.torque) +
+         bytes(c.rolling_torque);
+}
+
+}  // namespace
+
+std::size_t World::memory_bytes() const {
+  const State& s = state_;
+  std::size_t total = bytes(s.id) + bytes(s.position) + bytes(s.velocity) + bytes(s.angular_velocity) +
+                      bytes(s.force) + bytes(s.torque) + bytes(s.radius) + bytes(s.inv_mass) +
+                      bytes(s.inv_inertia) + bytes(s.material) + bytes(s.level) + bytes(s.index_of_id);
+  total += bytes(pairs_) + bytes(wall_contacts_) + bytes(workspace_.pairs) + bytes(workspace_.walls);
+  total += bytes(workspace_.count) + bytes(workspace_.offset);
+  total += bytes(adjacency_.pair_start) + bytes(adjacency_.pair_entry) + bytes(adjacency_.wall_start) +
+           bytes(adjacency_.cursor);
+  total += bytes(candidates_.row_start) + bytes(candidates_.partner);  // + broadphase scratch, added below
+
+  return total;
+}
+
+}  // namespace dem

@@ -1,0 +1,123 @@
+#pragma once
+// The World owns everything a run needs and advances it one sync interval at a time.
+// One sync interval (fixed control, velocity Verlet), top to bottom in world.cpp:
+//   kick (v += h/2 a)  ->  drift (x += h v)  ->  walls to t + h
+//   -> skin check, rebuild candidate pairs if any particle moved more than skin/2
+//   -> update contacts (history inherited by key) -> contact forces -> gather per particle
+//   -> kick (v += h/2 a) -> finite-state check
+// All parallel loops run inside the World's own tbb::task_arena, so an embedding program keeps
+// control of its own threads. Results are bitwise identical for any thread count.
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <tbb/task_arena.h>
+
+#include "broadphase/candidate_pairs.h"
+#include "broadphase/grid.h"
+#include "broadphase/kd_tree.h"
+#include "broadphase/skin.h"
+#include "engine/config.h"
+#include "engine/contacts.h"
+#include "engine/forces.h"
+#include "engine/materials.h"
+#include "engine/scheduler.h"
+#include "engine/state.h"
+#include "engine/walls.h"
+
+namespace dem {
+
+/// Outcome of advancing; anything but `ok` leaves the state inspectable and the run stopped.
+enum class StepStatus { ok, non_finite };
+
+struct Energies {
+  Real kinetic = 0;     // translational [J]
+  Real rotational = 0;  // [J]
+  Real potential = 0;   // gravitational, relative to the origin [J]
+  Real elastic = 0;     // stored in contact springs [J]
+  Real total() const { return kinetic + rotational + potential + elastic; }
+};
+
+/// Cost counters; particle-steps and force evaluations count every trial and retry.
+struct RunCounters {
+  std::uint64_t sync_intervals = 0;
+  std::uint64_t accepted_steps = 0;  // particle-steps accepted
+  std::uint64_t rejected_steps = 0;
+  std::uint64_t forced_steps = 0;
+  std::uint64_t particle_steps = 0;
+  std::uint64_t force_evaluations = 0;
+  std::uint64_t pair_rebuilds = 0;
+};
+
+class World {
+ public:
+  /// Builds the world; throws std::invalid_argument on an inconsistent configuration.
+  explicit World(const WorldConfig& config);
+  ~World();
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  /// Advances every particle to the next sync time.
+  StepStatus advance_sync_interval();
+  /// Advances until the first sync time at or after t [s].
+  StepStatus run_until(Real t);
+
+  Real time() const { return scheduler_.time(clock_); }
+  Real sync_interval() const { return scheduler_.sync_interval(); }
+  const Clock& clock() const { return clock_; }
+  int thread_count() const { return threads_; }
+  /// The arena all engine loops run in (for observers and embedding programs).
+  tbb::task_arena& arena() const { return *arena_; }
+
+  const WorldConfig& config() const { return config_; }
+  const State& state() const { return state_; }
+  const MaterialTable& materials() const { return materials_; }
+  const Walls& walls() const { return walls_; }
+  const PairContacts& pair_contacts() const { return pairs_; }
+  const WallContacts& wall_contacts() const { return wall_contacts_; }
+  const RunCounters& counters() const { return counters_; }
+  Real skin() const { return skin_; }
+  bool has_rotation() const { return kernels_.uses_rotation; }
+
+  /// Force and torque of the particles on wall w at the last evaluation.
+  WallLoad wall_load(std::size_t w) const;
+  Energies energies() const;
+  /// Energy dissipated by contacts since the start (dashpots, sliding, rolling, released springs) [J].
+  Real dissipated_energy() const;
+  /// Total linear momentum of finite-mass particles [kg m/s].
+  Vec3 linear_momentum() const;
+  std::uint64_t state_hash() const;
+  /// Heap bytes held by particle, contact and broadphase arrays (capacities, scratch included).
+  std::size_t memory_bytes() const;
+
+ private:
+  void add_particles();
+  void evaluate_forces(Real h, bool force_rebuild);
+  bool state_is_finite() const;
+
+  WorldConfig config_;
+  int threads_ = 1;
+  std::unique_ptr<tbb::task_arena> arena_;
+  State state_;
+  MaterialTable materials_;
+  Walls walls_;
+  Scheduler scheduler_;
+  Clock clock_;
+  ForceKernels kernels_;
+  Vec3 gravity_ = Vec3::Zero();
+  Real skin_ = 0;
+
+  broadphase::GridBroadphase grid_;
+  broadphase::KdTreeBroadphase kd_tree_;
+  broadphase::SkinTracker skin_tracker_;
+  broadphase::CandidatePairs candidates_;
+
+  PairContacts pairs_;
+  WallContacts wall_contacts_;
+  ContactAdjacency adjacency_;
+  ContactWorkspace workspace_;
+  RunCounters counters_;
+  Real ended_dissipation_ = 0;  // dissipated by contacts that have ended [J]
+};
+
+}  // namespace dem
