@@ -6,8 +6,8 @@
 
 namespace dem::broadphase {
 
-void BruteForceBroadphase::find_pairs(std::span<const Vec3> positions, std::span<const double> radii,
-                                      double skin, CandidatePairs& out) {
+void BruteForceBroadphase::find_pairs(std::span<const Vec3> positions, std::span<const double> radii, double skin,
+                                      CandidatePairs& out) {
   const std::size_t n = positions.size();
   assert(radii.size() == n);
   out.row_start.assign(1, 0);

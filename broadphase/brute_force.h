@@ -12,8 +12,7 @@ namespace dem::broadphase {
 class BruteForceBroadphase {
  public:
   /// Same contract as GridBroadphase::find_pairs.
-  void find_pairs(std::span<const Vec3> positions, std::span<const double> radii, double skin,
-                  CandidatePairs& out);
+  void find_pairs(std::span<const Vec3> positions, std::span<const double> radii, double skin, CandidatePairs& out);
 };
 
 }  // namespace dem::broadphase

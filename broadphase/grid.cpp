@@ -37,8 +37,8 @@ std::int64_t cell_coordinate(double x, double cell_size) {
 
 // Hash of a column of cells (x, y): odd 64-bit multipliers and a 64-bit finaliser; wraparound intended.
 std::uint64_t column_hash(std::int64_t x, std::int64_t y) {
-  std::uint64_t h = static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ull ^
-                    static_cast<std::uint64_t>(y) * 0xC2B2AE3D27D4EB4Full;
+  std::uint64_t h =
+      static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ull ^ static_cast<std::uint64_t>(y) * 0xC2B2AE3D27D4EB4Full;
   h ^= h >> 32;
   h *= 0xD6E8FEB86659FD93ull;
   h ^= h >> 32;
@@ -55,8 +55,7 @@ struct Extent {
 // A cell's bucket is its column's hash plus z: the cells above and below share the column and sit in the
 // adjacent buckets, so the 27 neighbours lie in at most 9 runs of consecutive buckets (memory locality).
 GridBroadphase::Cell GridBroadphase::cell_of(const Vec3& x) const {
-  return {cell_coordinate(x.x(), cell_size_), cell_coordinate(x.y(), cell_size_),
-          cell_coordinate(x.z(), cell_size_)};
+  return {cell_coordinate(x.x(), cell_size_), cell_coordinate(x.y(), cell_size_), cell_coordinate(x.z(), cell_size_)};
 }
 
 std::uint32_t GridBroadphase::bucket_of(const Cell& c) const {
@@ -119,18 +118,20 @@ void GridBroadphase::find_pairs(std::span<const Vec3> positions, std::span<const
     });
   };
   std::span<std::uint32_t> counts(out.row_start.data() + 1, n);
-  for_each_query([&](std::size_t t, const Neighbourhood& hood) {
-    counts[sorted_[t]] = count_partners(t, hood, skin);
-  });
+  for_each_query([&](std::size_t t, const Neighbourhood& hood) { counts[sorted_[t]] = count_partners(t, hood, skin); });
   const std::uint64_t pair_count = detail::inclusive_scan_in_place(counts, scan_scratch_);
   assert(pair_count <= std::numeric_limits<std::uint32_t>::max());
   out.partner.resize(pair_count);
   for_each_query([&](std::size_t t, const Neighbourhood& hood) {
-    std::uint32_t* row = out.partner.data() + out.row_start[sorted_[t]];
-    std::uint32_t k = 0;
-    for_each_partner(t, hood, skin, [&](std::uint32_t j) { row[k++] = j; });
-    std::sort(row, row + k);
+    const std::uint32_t i = sorted_[t];
+    fill_partners(t, hood, skin, {out.partner.data() + out.row_start[i], out.row_start[i + 1] - out.row_start[i]});
   });
+}
+
+std::size_t GridBroadphase::memory_bytes() const {
+  const auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  return bytes(bucket_start_) + bytes(sorted_) + bytes(slot_) + bytes(bucket_) + bytes(by_super_) +
+         bytes(block_offset_) + bytes(super_start_) + bytes(block_bounds_) + bytes(scan_scratch_);
 }
 
 // Counting sort of particles by bucket in two levels, so no shared counters are needed:
@@ -285,33 +286,43 @@ void GridBroadphase::find_neighbourhood(const Cell& cell, Neighbourhood& hood) c
   for (int k = 0; k < m; ++k) add(buckets[k], 1);
 }
 
-// Same test as for_each_partner, without branches on its outcome (half the j > i tests go either way).
+// The candidate test of slot t against slot u: partner j = sorted_[u] > i and is_candidate.
+bool GridBroadphase::is_partner(std::size_t t, std::uint32_t u, double skin) const {
+  return (sorted_[u] > sorted_[t]) &
+         is_candidate(slot_[t].position, slot_[t].radius, slot_[u].position, slot_[u].radius, skin);
+}
+
+// Branch-free on the test's outcome, which goes either way about half the time (the j > i part).
 std::uint32_t GridBroadphase::count_partners(std::size_t t, const Neighbourhood& hood, double skin) const {
-  const std::uint32_t i = sorted_[t];
-  const Slot& query = slot_[t];
   std::uint32_t count = 0;
   for (int k = 0; k < hood.range_count; ++k) {
-    for (std::uint32_t u = hood.begin[k]; u < hood.end[k]; ++u) {
-      count += static_cast<std::uint32_t>(sorted_[u] > i) &
-               static_cast<std::uint32_t>(is_candidate(query.position, query.radius, slot_[u].position, slot_[u].radius, skin));
-    }
+    for (std::uint32_t u = hood.begin[k]; u < hood.end[k]; ++u) count += is_partner(t, u, skin);
   }
   return count;
 }
 
-template <class Visit>
-void GridBroadphase::for_each_partner(std::size_t t, const Neighbourhood& hood, double skin,
-                                      Visit&& visit) const {
-  const std::uint32_t i = sorted_[t];
-  const Slot& query = slot_[t];
+// Writes the partners counted by count_partners into `row`, ascending. Short rows are gathered branch-free
+// in a local buffer (every write lands below the known count, so within the buffer); long rows directly.
+void GridBroadphase::fill_partners(std::size_t t, const Neighbourhood& hood, double skin,
+                                   std::span<std::uint32_t> row) const {
+  constexpr std::size_t local_capacity = 64;
+  std::uint32_t local[local_capacity];
+  const bool short_row = row.size() < local_capacity;
+  std::uint32_t* target = short_row ? local : row.data();
+  std::uint32_t count = 0;
   for (int k = 0; k < hood.range_count; ++k) {
     for (std::uint32_t u = hood.begin[k]; u < hood.end[k]; ++u) {
-      const std::uint32_t j = sorted_[u];
-      if (j > i && is_candidate(query.position, query.radius, slot_[u].position, slot_[u].radius, skin)) {
-        visit(j);
+      if (short_row) {
+        target[count] = sorted_[u];
+        count += is_partner(t, u, skin);
+      } else if (is_partner(t, u, skin)) {
+        target[count++] = sorted_[u];
       }
     }
   }
+  assert(count == row.size());
+  std::sort(target, target + count);
+  if (short_row) std::copy(local, local + count, row.begin());
 }
 
 }  // namespace dem::broadphase

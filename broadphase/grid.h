@@ -13,21 +13,24 @@ namespace dem::broadphase {
 
 /// Candidate pairs from one uniform grid of cubic cells, hashed from integer cell coordinates, so no
 /// domain box is needed. Cell size: largest diameter plus skin (widened by a hair so rounding never
-/// separates a candidate pair by two cells). Cost is O(n) for similar sizes; one huge particle makes the
-/// cells huge and the search slow, but still correct (use KdTreeBroadphase for wide size ranges).
+/// separates a candidate pair by two cells). A cell's bucket is hash(x, y) + z in a power-of-two table
+/// of at least 2n buckets, so the 27 neighbours of a cell lie in at most 9 runs of adjacent buckets.
+/// Cost is O(n) for similar sizes; one huge particle makes the cells huge and the search slow, but
+/// still correct (KdTreeBroadphase copes better with wide size ranges).
 class GridBroadphase {
  public:
   /// Writes into `out` every pair i < j with is_candidate(x_i, r_i, x_j, r_j, skin), as CSR rows in
   /// ascending order. `radii` has one entry per position; skin >= 0 [m]. Buffers (and `out`) are reused,
   /// so nothing is allocated once n and the pair count stop growing. Limits: n < 2^30 and fewer than
   /// 2^32 pairs. Non-finite positions give unspecified pairs but no undefined behaviour.
-  void find_pairs(std::span<const Vec3> positions, std::span<const double> radii, double skin,
-                  CandidatePairs& out);
+  void find_pairs(std::span<const Vec3> positions, std::span<const double> radii, double skin, CandidatePairs& out);
 
   /// Cell edge of the last call [m]; 0 before the first call and after a call with no particles.
   double cell_size() const { return cell_size_; }
   /// Hash buckets of the last call: a power of two, at least 2n (0 after a call with no particles).
   std::size_t bucket_count() const { return bucket_start_.empty() ? 0 : bucket_start_.size() - 1; }
+  /// Heap bytes held by the scratch buffers (capacities).
+  std::size_t memory_bytes() const;
 
  private:
   struct Cell {
@@ -36,7 +39,7 @@ class GridBroadphase {
   struct CellBounds {
     Cell lo, hi;  // smallest and largest occupied cell coordinate per axis
   };
-  struct Slot {  // a particle's centre and radius, copied into bucket order for sequential reads
+  struct Slot {     // a particle's centre and radius, copied into bucket order for sequential reads
     Vec3 position;  // [m]
     double radius;  // [m]
   };
@@ -59,10 +62,9 @@ class GridBroadphase {
   std::uint32_t bucket_of(const Cell& c) const;
   void sort_into_buckets(std::span<const Vec3> positions, std::span<const double> radii);
   void find_neighbourhood(const Cell& cell, Neighbourhood& hood) const;
+  bool is_partner(std::size_t t, std::uint32_t u, double skin) const;
   std::uint32_t count_partners(std::size_t t, const Neighbourhood& hood, double skin) const;
-  // Calls visit(j) for every partner j > i of the particle in slot t, in no particular order.
-  template <class Visit>
-  void for_each_partner(std::size_t t, const Neighbourhood& hood, double skin, Visit&& visit) const;
+  void fill_partners(std::size_t t, const Neighbourhood& hood, double skin, std::span<std::uint32_t> row) const;
 
   double cell_size_ = 0.0;                   // [m]
   std::uint64_t bucket_mask_ = 0;            // bucket_count - 1

@@ -6,8 +6,8 @@
 
 #include "broadphase/parallel.h"
 
-#include <nanoflann.hpp>
 #include <tbb/parallel_reduce.h>
+#include <nanoflann.hpp>
 
 #include <algorithm>
 #include <cassert>
@@ -22,9 +22,7 @@ struct PointCloud {
   std::span<const Vec3> points;
 
   std::size_t kdtree_get_point_count() const { return points.size(); }
-  double kdtree_get_pt(std::uint32_t i, std::size_t axis) const {
-    return points[i][static_cast<Eigen::Index>(axis)];
-  }
+  double kdtree_get_pt(std::uint32_t i, std::size_t axis) const { return points[i][static_cast<Eigen::Index>(axis)]; }
   template <class BoundingBox>
   bool kdtree_get_bbox(BoundingBox&) const {
     return false;  // let nanoflann compute it
@@ -43,8 +41,7 @@ class PartnerSink {
  public:
   PartnerSink(std::uint32_t i, std::span<const Vec3> positions, std::span<const double> radii, double skin,
               double search_radius_sq, std::uint32_t* row)
-      : i_(i), positions_(positions), radii_(radii), skin_(skin), search_radius_sq_(search_radius_sq),
-        row_(row) {}
+      : i_(i), positions_(positions), radii_(radii), skin_(skin), search_radius_sq_(search_radius_sq), row_(row) {}
 
   double worstDist() const { return search_radius_sq_; }
   bool full() const { return true; }
@@ -71,8 +68,9 @@ class PartnerSink {
 
 struct KdTreeBroadphase::Tree {
   PointCloud cloud;
-  Index index{3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(
-                            leaf_size, nanoflann::KDTreeSingleIndexAdaptorFlags::SkipInitialBuildIndex)};
+  Index index{3, cloud,
+              nanoflann::KDTreeSingleIndexAdaptorParams(
+                  leaf_size, nanoflann::KDTreeSingleIndexAdaptorFlags::SkipInitialBuildIndex)};
 };
 
 KdTreeBroadphase::KdTreeBroadphase() : tree_(std::make_unique<Tree>()) {}
@@ -80,8 +78,14 @@ KdTreeBroadphase::~KdTreeBroadphase() = default;
 KdTreeBroadphase::KdTreeBroadphase(KdTreeBroadphase&&) noexcept = default;
 KdTreeBroadphase& KdTreeBroadphase::operator=(KdTreeBroadphase&&) noexcept = default;
 
-void KdTreeBroadphase::find_pairs(std::span<const Vec3> positions, std::span<const double> radii,
-                                  double skin, CandidatePairs& out) {
+std::size_t KdTreeBroadphase::memory_bytes() const {
+  const Index& index = tree_->index;
+  return index.pool.usedMemory + index.pool.wastedMemory + index.vAcc.capacity() * sizeof(std::uint32_t) +
+         scan_scratch_.capacity() * sizeof(std::uint64_t);
+}
+
+void KdTreeBroadphase::find_pairs(std::span<const Vec3> positions, std::span<const double> radii, double skin,
+                                  CandidatePairs& out) {
   const std::size_t n = positions.size();
   assert(radii.size() == n);
   assert(skin >= 0.0);

@@ -17,6 +17,7 @@ namespace dem::broadphase {
 /// hair so rounding never loses a pair), keeps j > i with is_candidate, and sorts its row.
 class KdTreeBroadphase {
  public:
+  /// An empty tree; each find_pairs builds it anew.
   KdTreeBroadphase();
   ~KdTreeBroadphase();
   KdTreeBroadphase(KdTreeBroadphase&&) noexcept;
@@ -25,8 +26,10 @@ class KdTreeBroadphase {
   /// Same contract as GridBroadphase::find_pairs: every pair i < j with is_candidate, CSR rows ascending.
   /// The tree refers to `positions` only during the call. nanoflann re-allocates its node pool on each
   /// build; the other buffers and `out` are reused. Limits: n < 2^32, fewer than 2^32 pairs.
-  void find_pairs(std::span<const Vec3> positions, std::span<const double> radii, double skin,
-                  CandidatePairs& out);
+  void find_pairs(std::span<const Vec3> positions, std::span<const double> radii, double skin, CandidatePairs& out);
+
+  /// Heap bytes held by the tree and the scratch buffers.
+  std::size_t memory_bytes() const;
 
  private:
   struct Tree;  // nanoflann stays out of this header (it is a private dependency)

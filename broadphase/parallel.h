@@ -26,8 +26,7 @@ void parallel_ranges(std::size_t n, std::size_t grain, const Body& body) {
 /// Replaces values by their inclusive prefix sums and returns the total (64-bit, so the caller can see
 /// that it overflowed 32 bits). Blocks of fixed size: sum each block in parallel, scan the block sums
 /// serially, then add the block offsets in parallel. `block_sums` is scratch, reused across calls.
-inline std::uint64_t inclusive_scan_in_place(std::span<std::uint32_t> values,
-                                             std::vector<std::uint64_t>& block_sums) {
+inline std::uint64_t inclusive_scan_in_place(std::span<std::uint32_t> values, std::vector<std::uint64_t>& block_sums) {
   constexpr std::size_t block = 16384;
   const std::size_t n = values.size();
   const std::size_t block_count = (n + block - 1) / block;

@@ -78,6 +78,33 @@ inline Vec3 spring_slider(Vec3& spring, std::uint8_t& mode, std::uint8_t bit, co
   return limited;
 }
 
+/// Rolling resistance as Ai et al. (2011) model C: an elastic-plastic rotational spring whose elastic
+/// torque -k theta is capped (static limit to leave the static state, the smaller of the two limits
+/// to return to it, the kinetic limit while rolling), plus a viscous torque only while static, the
+/// sum bounded by the static limit.
+/// Capping the spring alone, not spring plus dashpot, keeps the dashpot from breaking a hold that the
+/// spring could carry (PHYSICS.md 1.4).
+inline Vec3 rolling_spring(Vec3& spring, std::uint8_t& mode, const Vec3& rate, Real k, Real c, Real static_limit,
+                           Real kinetic_limit, Real h) {
+  spring += rate * h;
+  Vec3 elastic = -k * spring;
+  const bool was_rolling = (mode & mode_rolling) != 0;
+  const Real hold_limit = was_rolling ? std::min(static_limit, kinetic_limit) : static_limit;
+  const Real elastic_norm = elastic.norm();
+  if (elastic_norm <= hold_limit) {
+    mode = static_cast<std::uint8_t>(mode & ~mode_rolling);
+    // The dashpot acts while static, but the total never exceeds what static friction can supply.
+    Vec3 total = elastic - c * rate;
+    const Real total_norm = total.norm();
+    if (total_norm > static_limit) total *= static_limit / total_norm;
+    return total;
+  }
+  mode = static_cast<std::uint8_t>(mode | mode_rolling);
+  elastic *= kinetic_limit / elastic_norm;
+  spring = -elastic / k;
+  return elastic;
+}
+
 }  // namespace law_detail
 
 template <Separation Sep, bool Friction, RollingKind Rolling>
@@ -104,9 +131,9 @@ struct LinearSpringDashpot {
       if constexpr (Rolling == RollingKind::seed && Friction) active = (history.mode & mode_sliding) == 0;
       if (active) {
         history.rolling_spring = law_detail::project_keep_length(history.rolling_spring, k.normal);
-        out.rolling_torque = law_detail::spring_slider(history.rolling_spring, history.mode, mode_rolling,
-                                                       k.rolling_velocity, c.k_r, c.c_r,
-                                                       c.mu_rs * c.r_star * load, c.mu_r * c.r_star * load, h);
+        out.rolling_torque = law_detail::rolling_spring(history.rolling_spring, history.mode, k.rolling_velocity,
+                                                        c.k_r, c.c_r, c.mu_rs * c.r_star * load,
+                                                        c.mu_r * c.r_star * load, h);
       } else {
         history.rolling_spring.setZero();
         history.mode = static_cast<std::uint8_t>(history.mode | mode_rolling);

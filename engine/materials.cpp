@@ -116,8 +116,9 @@ LawConstants MaterialTable::constants(std::uint16_t pair_class, const EffectiveM
   c.mu_rs = p.mu_rs;
   c.r_star = m.r_star;
   c.k_r = p.k_r >= 0 ? p.k_r : p.k_t * m.r_star * m.r_star;
-  // Rolling dashpot critical for the pair's effective inertia (PHYSICS.md 1.4, type C).
-  c.c_r = std::isinf(m.i_star) ? 0 : 2 * std::sqrt(c.k_r * m.i_star);
+  // Rolling dashpot critical for rolling about the contact point: the inertia there is
+  // I* + m* R*^2 (3.5 I for a solid sphere on a wall), not I* alone (PHYSICS.md 1.4, type C).
+  c.c_r = std::isinf(m.i_star) ? 0 : 2 * std::sqrt(c.k_r * (m.i_star + m.m_star * m.r_star * m.r_star));
   return c;
 }
 

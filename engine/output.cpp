@@ -210,8 +210,9 @@ void write_file_atomically(const std::filesystem::path& path, const std::string&
   temporary += ".tmp." + std::to_string(::getpid());
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) throw_io("cannot create", temporary, errno);
+  // Atomic against a crash of this process (the rename is all or nothing). No fsync: surviving a
+  // power loss would cost tens of milliseconds per snapshot on ordinary disks.
   int error = write_all(fd, contents.data(), contents.size());
-  if (error == 0 && ::fsync(fd) != 0) error = errno;
   if (::close(fd) != 0 && error == 0) error = errno;
   if (error != 0) {
     ::unlink(temporary.c_str());
@@ -221,13 +222,6 @@ void write_file_atomically(const std::filesystem::path& path, const std::string&
     error = errno;
     ::unlink(temporary.c_str());
     throw_io("cannot rename " + temporary.string() + " to", path, error);
-  }
-  // Make the rename itself durable. Some file systems refuse fsync on a folder: best effort.
-  const std::filesystem::path folder = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
-  const int folder_fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (folder_fd >= 0) {
-    ::fsync(folder_fd);
-    ::close(folder_fd);
   }
 }
 
@@ -332,11 +326,12 @@ void SeriesWriter::append(const std::vector<double>& row) {
     append_double(line, row[c]);
   }
   line += '\n';
-  // One write of the whole line (O_APPEND), then fsync: a crash tears at most this row.
+  // One write of the whole line (O_APPEND): once write() returns the row survives a crash of this
+  // process (a torn last line is dropped on reopening). No fsync per row: rows come every output
+  // interval and an fsync each would cost more than the physics of small scenes.
   if (const int error = write_all(fd_, line.data(), line.size()); error != 0) {
     throw_io("cannot append to", path_, error);
   }
-  if (::fsync(fd_) != 0) throw_io("cannot fsync", path_, errno);
 }
 
 void SeriesWriter::truncate_after(double time) {

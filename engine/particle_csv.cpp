@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "engine/input_error.h"
+#include "engine/output.h"
 
 namespace dem {
 namespace {
@@ -80,10 +81,9 @@ std::vector<ParticleConfig> read_particle_csv(const std::string& path, const std
 }
 
 void write_particle_csv(const std::string& path, const std::vector<ParticleConfig>& particles) {
-  const std::string temporary = path + ".tmp";
+  std::ostringstream out;
+  out.precision(17);
   {
-    std::ofstream out(temporary);
-    out.precision(17);
     out << "id,x,y,z,vx,vy,vz,wx,wy,wz,radius,density\n";
     for (std::size_t i = 0; i < particles.size(); ++i) {
       const ParticleConfig& p = particles[i];
@@ -91,9 +91,8 @@ void write_particle_csv(const std::string& path, const std::vector<ParticleConfi
           << p.velocity.x() << ',' << p.velocity.y() << ',' << p.velocity.z() << ',' << p.angular_velocity.x() << ','
           << p.angular_velocity.y() << ',' << p.angular_velocity.z() << ',' << p.radius << ',' << p.density << '\n';
     }
-    if (!out.flush()) throw std::runtime_error("cannot write " + temporary);
   }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) throw std::runtime_error("cannot rename " + temporary + " to " + path);
+  write_file_atomically(path, out.str());
 }
 
 }  // namespace dem

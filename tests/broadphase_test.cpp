@@ -54,8 +54,8 @@ struct Particles {
 };
 
 // n particles uniform in the box [lo, hi]; radii uniform in [r_lo, r_hi], or log-uniform.
-Particles random_box(std::size_t n, const Vec3& lo, const Vec3& hi, double r_lo, double r_hi,
-                     std::uint64_t seed, bool log_radii = false) {
+Particles random_box(std::size_t n, const Vec3& lo, const Vec3& hi, double r_lo, double r_hi, std::uint64_t seed,
+                     bool log_radii = false) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   Particles p;
@@ -259,7 +259,8 @@ TYPED_TEST(BroadphaseMatchesOracle, TwoDimensionalInput) {
 
 TYPED_TEST(BroadphaseMatchesOracle, NegativeAndLargeCoordinates) {
   const Vec3 offset(-1e5, 1e5, -1e5);
-  const auto pairs = this->expect_matches_oracle(random_box(10000, offset, offset + Vec3::Constant(20.0), 0.2, 0.6, 9), 0.05);
+  const auto pairs =
+      this->expect_matches_oracle(random_box(10000, offset, offset + Vec3::Constant(20.0), 0.2, 0.6, 9), 0.05);
   EXPECT_GT(pairs.pair_count(), 10000u);
 }
 
@@ -275,7 +276,7 @@ TYPED_TEST(BroadphaseMatchesOracle, ExtremeFiniteCoordinates) {
   // Far beyond any cell index an int64 could hold for the natural cell size: must neither overflow nor
   // lose pairs, however slow.
   Particles p;
-  for (int k = 0; k < 100; ++k) p.add(Vec3(1e18 + 256.0 * k, -1e18, 1e18), 200.0);   // ulp(1e18) = 128
+  for (int k = 0; k < 100; ++k) p.add(Vec3(1e18 + 256.0 * k, -1e18, 1e18), 200.0);  // ulp(1e18) = 128
   for (int k = 0; k < 20; ++k) p.add(Vec3(-1e300, 1e300 + 1e285 * k, 0.0), 1e150);  // reach^2 finite
   p.add(Vec3(DBL_MAX, -DBL_MAX, DBL_MAX), 1.0);
   p.add(Vec3(DBL_MAX, -DBL_MAX, DBL_MAX), 1.0);  // coincident at the edge of the doubles
@@ -349,9 +350,12 @@ TEST(GridBroadphase, AllocatesNothingAfterWarmUp) {
   tbb::task_arena arena(2);
   arena.execute([&] {
     grid.find_pairs(p.position, p.radius, 0.1, pairs);
+    const std::size_t held = grid.memory_bytes();
     const long before = allocation_count.load();
     grid.find_pairs(p.position, p.radius, 0.1, pairs);
     EXPECT_EQ(allocation_count.load() - before, 0);
+    EXPECT_EQ(grid.memory_bytes(), held);
+    EXPECT_GE(held, p.size() * (sizeof(Vec3) + sizeof(double)));  // at least the slot copies
   });
 }
 
@@ -370,9 +374,9 @@ TEST(GridBroadphase, BucketTableIsAPowerOfTwoOfAtLeastTwiceTheParticles) {
 TEST(BruteForceBroadphase, FindsExactlyThePairsWithinReach) {
   Particles p;
   p.add(Vec3(0.0, 0.0, 0.0), 0.5);
-  p.add(Vec3(1.0, 0.0, 0.0), 0.5);   // 1.0 from the first: within 0.5 + 0.5 + 0.1
-  p.add(Vec3(2.5, 0.0, 0.0), 0.5);   // 1.5 from the second: beyond
-  p.add(Vec3(1.0, 1.1, 0.0), 0.5);   // exactly at the reach of the second: included
+  p.add(Vec3(1.0, 0.0, 0.0), 0.5);  // 1.0 from the first: within 0.5 + 0.5 + 0.1
+  p.add(Vec3(2.5, 0.0, 0.0), 0.5);  // 1.5 from the second: beyond
+  p.add(Vec3(1.0, 1.1, 0.0), 0.5);  // exactly at the reach of the second: included
   const CandidatePairs pairs = oracle(p, 0.1);
   EXPECT_EQ(pairs.row_start, (std::vector<std::uint32_t>{0, 1, 2, 2, 2}));
   EXPECT_EQ(pairs.partner, (std::vector<std::uint32_t>{1, 3}));
