@@ -6,14 +6,9 @@
 #include <exception>
 
 #include "engine/cli/commands.h"
+#include "engine/cli/version.h"
 #include "engine/input_error.h"
 
-#ifndef DEM_VERSION
-#define DEM_VERSION "0.0.0"
-#endif
-#ifndef DEM_GIT_HASH
-#define DEM_GIT_HASH "unknown"
-#endif
 
 int main(int argc, char** argv) {
   CLI::App app{"dem: discrete element simulations that tell you how accurate they are"};

@@ -3,6 +3,7 @@
 // Outputs never shorten a step: a row is written at the first sync time at or after each multiple
 // of output.interval, and the run ends at the first sync time at or after `until`.
 #include "engine/cli/commands.h"
+#include "engine/cli/version.h"
 
 #include <unistd.h>
 
@@ -16,15 +17,6 @@
 #include "engine/particle_csv.h"
 #include "engine/world.h"
 
-#ifndef DEM_VERSION
-#define DEM_VERSION "0.0.0"
-#endif
-#ifndef DEM_GIT_HASH
-#define DEM_GIT_HASH "unknown"
-#endif
-#ifndef DEM_COMPILE_FLAGS
-#define DEM_COMPILE_FLAGS ""
-#endif
 
 namespace dem::cli {
 namespace {
