@@ -50,6 +50,13 @@ EffectiveMasses effective_masses(Real inv_m_i, Real inv_i_i, Real r_i, Real inv_
   return m;
 }
 
+Real particle_mass(const ParticleConfig& p, Real material_density, int dimension, Real thickness) {
+  if (p.mass > 0) return p.mass;
+  const Real volume = dimension == 2 ? pi * p.radius * p.radius * thickness
+                                     : 4.0 / 3.0 * pi * p.radius * p.radius * p.radius;
+  return (p.density > 0 ? p.density : material_density) * volume;
+}
+
 Real damping_coefficient(const Damping& d, Real k, Real m, Real gamma_mass) {
   switch (d.kind) {
     case DampingKind::damping_ratio:

@@ -47,6 +47,13 @@ EffectiveMasses effective_masses(Real inv_m_i, Real inv_i_i, Real r_i, Real inv_
 /// Damping coefficient c [N s/m] of `d` for spring k and effective mass m (gamma uses gamma_mass).
 Real damping_coefficient(const Damping& d, Real k, Real m, Real gamma_mass);
 
+/// Inertia factor kappa of I = kappa m R^2: 2/5 for solid spheres (3D), 1/2 for discs (2D).
+inline Real inertia_factor(int dimension) { return dimension == 2 ? 0.5 : 0.4; }
+
+/// Mass of a particle [kg]: `mass` if given, else density (its own or its material's) times the
+/// volume of a sphere, or of a disc of `thickness` in 2D.
+Real particle_mass(const ParticleConfig& p, Real material_density, int dimension, Real thickness);
+
 class MaterialTable {
  public:
   MaterialTable() = default;

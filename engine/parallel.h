@@ -9,6 +9,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 namespace dem {
 
@@ -42,6 +43,18 @@ T block_sum(std::size_t n, const Value& value, T zero = T{}) {
   T total = zero;
   for (const T& p : partial) total = total + p;
   return total;
+}
+
+/// True when pred(i) holds for some i in [0, n). Logical OR is order-free, so any reduction is exact.
+template <class Pred>
+bool parallel_any(std::size_t n, const Pred& pred, std::size_t grain = default_grain) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, grain), false,
+      [&](const tbb::blocked_range<std::size_t>& r, bool found) {
+        for (std::size_t i = r.begin(); i != r.end() && !found; ++i) found = pred(i);
+        return found;
+      },
+      [](bool a, bool b) { return a || b; });
 }
 
 /// Exclusive prefix sum of counts into offsets (size n + 1); serial, the counts are integers.

@@ -83,14 +83,12 @@ std::vector<ParticleConfig> read_particle_csv(const std::string& path, const std
 void write_particle_csv(const std::string& path, const std::vector<ParticleConfig>& particles) {
   std::ostringstream out;
   out.precision(17);
-  {
-    out << "id,x,y,z,vx,vy,vz,wx,wy,wz,radius,density\n";
-    for (std::size_t i = 0; i < particles.size(); ++i) {
-      const ParticleConfig& p = particles[i];
-      out << i + 1 << ',' << p.position.x() << ',' << p.position.y() << ',' << p.position.z() << ','
-          << p.velocity.x() << ',' << p.velocity.y() << ',' << p.velocity.z() << ',' << p.angular_velocity.x() << ','
-          << p.angular_velocity.y() << ',' << p.angular_velocity.z() << ',' << p.radius << ',' << p.density << '\n';
-    }
+  out << "id,x,y,z,vx,vy,vz,wx,wy,wz,radius,density\n";
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    const ParticleConfig& p = particles[i];
+    out << i + 1 << ',' << p.position.x() << ',' << p.position.y() << ',' << p.position.z() << ',' << p.velocity.x()
+        << ',' << p.velocity.y() << ',' << p.velocity.z() << ',' << p.angular_velocity.x() << ','
+        << p.angular_velocity.y() << ',' << p.angular_velocity.z() << ',' << p.radius << ',' << p.density << '\n';
   }
   write_file_atomically(path, out.str());
 }

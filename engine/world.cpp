@@ -52,14 +52,12 @@ World::~World() = default;
 
 void World::add_particles() {
   const bool disc = config_.model.dimension == 2;
-  const Real kappa = disc ? 0.5 : 0.4;  // inertia I = kappa m R^2
+  const Real kappa = inertia_factor(config_.model.dimension);
   for (const ParticleConfig& p : config_.particles) {
     const int mat = materials_.find(p.material);
     if (mat < 0) throw std::invalid_argument("particle names an unknown material '" + p.material + "'");
-    const Real volume = disc ? pi * p.radius * p.radius * config_.model.thickness
-                             : 4.0 / 3.0 * pi * p.radius * p.radius * p.radius;
-    const Real density = p.density > 0 ? p.density : materials_.density(static_cast<std::uint16_t>(mat));
-    const Real mass = p.mass > 0 ? p.mass : density * volume;
+    const Real mass = particle_mass(p, materials_.density(static_cast<std::uint16_t>(mat)), config_.model.dimension,
+                                    config_.model.thickness);
     const Real inv_mass = std::isinf(mass) ? 0 : 1 / mass;
     const Real inv_inertia = inv_mass / (kappa * p.radius * p.radius);
     Vec3 x = p.position, v = p.velocity, w = p.angular_velocity;
@@ -123,19 +121,15 @@ StepStatus World::run_until(Real t) {
 }
 
 bool World::state_is_finite() const {
-  const std::size_t bad = block_sum<std::size_t>(state_.size(), [&](std::size_t p) -> std::size_t {
-    return state_.position[p].allFinite() && state_.velocity[p].allFinite() &&
-                   state_.angular_velocity[p].allFinite()
-               ? 0
-               : 1;
+  return !parallel_any(state_.size(), [&](std::size_t p) {
+    return !(state_.position[p].allFinite() && state_.velocity[p].allFinite() && state_.angular_velocity[p].allFinite());
   });
-  return bad == 0;
 }
 
-WallLoad World::wall_load(std::size_t w) const {
+std::vector<WallLoad> World::wall_loads() const {
   std::vector<WallLoad> loads;
   accumulate_wall_loads(walls_, wall_contacts_, loads);
-  return loads.at(w);
+  return loads;
 }
 
 Energies World::energies() const {
@@ -213,7 +207,8 @@ std::size_t World::memory_bytes() const {
   total += bytes(workspace_.count) + bytes(workspace_.offset);
   total += bytes(adjacency_.pair_start) + bytes(adjacency_.pair_entry) + bytes(adjacency_.wall_start) +
            bytes(adjacency_.cursor);
-  total += bytes(candidates_.row_start) + bytes(candidates_.partner);  // + broadphase scratch, added below
+  total += bytes(candidates_.row_start) + bytes(candidates_.partner);
+  total += grid_.memory_bytes() + kd_tree_.memory_bytes() + skin_tracker_.memory_bytes();
 
   return total;
 }

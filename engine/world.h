@@ -79,8 +79,10 @@ class World {
   Real skin() const { return skin_; }
   bool has_rotation() const { return kernels_.uses_rotation; }
 
-  /// Force and torque of the particles on wall w at the last evaluation.
-  WallLoad wall_load(std::size_t w) const;
+  /// Force and torque of the particles on each wall at the last evaluation (one pass over contacts).
+  std::vector<WallLoad> wall_loads() const;
+  /// The same for one wall.
+  WallLoad wall_load(std::size_t w) const { return wall_loads().at(w); }
   Energies energies() const;
   /// Energy dissipated by contacts since the start (dashpots, sliding, rolling, released springs) [J].
   Real dissipated_energy() const;

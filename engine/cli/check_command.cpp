@@ -26,15 +26,13 @@ int check_command(const std::string& path, const std::vector<std::string>& overr
   const Scene scene = load_scene(path, overrides);
   const WorldConfig& w = scene.world;
   const MaterialTable materials(w.materials, w.contacts, w.model.separation);
-  const bool disc = w.model.dimension == 2;
-  const Real kappa = disc ? 0.5 : 0.4;
+  const Real kappa = inertia_factor(w.model.dimension);
 
   std::vector<Lightest> lightest(materials.material_count());
   for (const ParticleConfig& p : w.particles) {
     const int m = materials.find(p.material);
-    const Real volume = disc ? pi * p.radius * p.radius * w.model.thickness : 4.0 / 3.0 * pi * std::pow(p.radius, 3);
-    const Real density = p.density > 0 ? p.density : materials.density(static_cast<std::uint16_t>(m));
-    const Real mass = p.mass > 0 ? p.mass : density * volume;
+    const Real mass = particle_mass(p, materials.density(static_cast<std::uint16_t>(m)), w.model.dimension,
+                                    w.model.thickness);
     if (mass < lightest[m].mass) lightest[m] = {mass, p.radius};
   }
 

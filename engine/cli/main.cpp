@@ -9,7 +9,6 @@
 #include "engine/cli/version.h"
 #include "engine/input_error.h"
 
-
 int main(int argc, char** argv) {
   CLI::App app{"dem: discrete element simulations that tell you how accurate they are"};
   app.set_version_flag("--version", std::string("dem ") + DEM_VERSION + " (git " + DEM_GIT_HASH + ")");

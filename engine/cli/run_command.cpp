@@ -17,7 +17,6 @@
 #include "engine/particle_csv.h"
 #include "engine/world.h"
 
-
 namespace dem::cli {
 namespace {
 
@@ -47,8 +46,7 @@ std::vector<double> series_row(const World& world) {
 
 std::vector<double> wall_row(const World& world) {
   std::vector<double> row{world.time()};
-  for (std::size_t w = 0; w < world.walls().count(); ++w) {
-    const WallLoad load = world.wall_load(w);
+  for (const WallLoad& load : world.wall_loads()) {
     for (int k = 0; k < 3; ++k) row.push_back(load.force[k]);
     for (int k = 0; k < 3; ++k) row.push_back(load.torque[k]);
   }
@@ -158,22 +156,22 @@ int run_command(const RunOptions& options) {
 
   std::vector<std::string> wall_names;
   for (std::size_t w = 0; w < world.walls().count(); ++w) wall_names.push_back(world.walls().config(w).name);
-  std::filesystem::remove(out / "series.csv");
-  std::filesystem::remove(out / "walls.csv");
-  std::filesystem::remove(out / "particles.pvd");
+  // A new run starts its append-only files afresh (the writers would otherwise append: resume).
+  for (const char* file : {"series.csv", "walls.csv", "particles.pvd", "walls.pvd"}) std::filesystem::remove(out / file);
   SeriesWriter series(out / "series.csv", series_columns());
   SeriesWriter walls(out / "walls.csv", wall_columns(wall_names));
   PvdIndex particles_pvd(out / "particles.pvd");
   PvdIndex walls_pvd(out / "walls.pvd");
-  walls_pvd.truncate_after(-1);
-  particles_pvd.truncate_after(-1);
 
   const Real interval = scene.output.interval;
   const Real snapshot_interval = scene.output.snapshot_interval;
   std::int64_t next_row = 0, next_snapshot = 0, snapshot_count = 0;
+  // Writes what is due at the current sync time (everything when `final_row`); true if anything was.
   auto write_outputs = [&](bool final_row) {
     const Real t = world.time();
+    bool wrote = false;
     if (t >= next_row * interval || final_row) {
+      wrote = true;
       series.append(series_row(world));
       walls.append(wall_row(world));
       next_row = static_cast<std::int64_t>(std::floor(t / interval)) + 1;
@@ -189,7 +187,9 @@ int run_command(const RunOptions& options) {
       }
       ++snapshot_count;
       next_snapshot = static_cast<std::int64_t>(std::floor(t / snapshot_interval)) + 1;
+      wrote = true;
     }
+    return wrote;
   };
   write_outputs(false);
 
@@ -200,10 +200,7 @@ int run_command(const RunOptions& options) {
   while (world.time() < scene.run.until) {
     status = world.advance_sync_interval();
     if (status != StepStatus::ok) break;
-    if (world.time() >= next_row * interval || (snapshot_interval > 0 && world.time() >= next_snapshot * snapshot_interval)) {
-      write_outputs(false);
-      last_written = world.time();
-    }
+    if (write_outputs(false)) last_written = world.time();
     if (scene.run.stop_kinetic_energy > 0 && world.time() >= scene.run.stop_check_after) {
       const Energies e = world.energies();
       if (e.kinetic + e.rotational < scene.run.stop_kinetic_energy) {
