@@ -174,7 +174,7 @@ int run_command(const RunOptions& options) {
       wrote = true;
       series.append(series_row(world));
       walls.append(wall_row(world));
-      next_row = static_cast<std::int64_t>(std::floor(t / interval)) + 1;
+      next_row = std::max(next_row + 1, static_cast<std::int64_t>(std::floor(t / interval)) + 1);  // t / interval may round down
     }
     if (snapshot_interval > 0 && (t >= next_snapshot * snapshot_interval || final_row)) {
       const std::string name = "particles_" + std::to_string(snapshot_count) + ".vtp";
@@ -186,7 +186,7 @@ int run_command(const RunOptions& options) {
         walls_pvd.add(t, wall_name);
       }
       ++snapshot_count;
-      next_snapshot = static_cast<std::int64_t>(std::floor(t / snapshot_interval)) + 1;
+      next_snapshot = std::max(next_snapshot + 1, static_cast<std::int64_t>(std::floor(t / snapshot_interval)) + 1);
       wrote = true;
     }
     return wrote;
