@@ -26,6 +26,9 @@ class SkinTracker {
   /// changed or reset was never called; NaN when a displacement is not a number.
   double max_displacement(std::span<const Vec3> positions) const;
 
+  /// Positions at the last reset (empty before the first), e.g. for checkpoints.
+  std::span<const Vec3> reference() const { return reference_; }
+
   /// Heap bytes held by the reference copy.
   std::size_t memory_bytes() const { return reference_.capacity() * sizeof(Vec3); }
 

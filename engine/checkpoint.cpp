@@ -1,6 +1,13 @@
 #include "engine/checkpoint.h"
 
 #include <cstring>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <type_traits>
+
+#include "engine/output.h"
+#include "engine/world.h"
 
 namespace dem {
 namespace {
@@ -46,6 +53,178 @@ std::uint64_t state_hash(const State& s, const PairContacts& pairs, const WallCo
     h.add_history(walls.history[k]);
   }
   return h.value;
+}
+
+}  // namespace dem
+
+// ---- checkpoints ---------------------------------------------------------------------------------
+// Layout: magic, format version, scene hash, then every field below in order; vectors as a 64-bit
+// count followed by their raw bytes (same binary on the same machine: checkpoints are for resuming,
+// not for exchange), and a trailing FNV-1a of everything before it to catch truncation.
+
+namespace dem {
+namespace {
+
+constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
+constexpr std::uint32_t checkpoint_version = 1;
+
+class ByteWriter {
+ public:
+  template <class T>
+  void put(const T& v) {
+    static_assert(std::is_arithmetic_v<T>);
+    bytes_.append(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  template <class T>
+  void put(const std::vector<T>& v) {
+    put(static_cast<std::uint64_t>(v.size()));
+    bytes_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+  std::string finish() {
+    Fnv1a h;
+    h.add(bytes_.data(), bytes_.size());
+    put(h.value);
+    return std::move(bytes_);
+  }
+  std::string& bytes() { return bytes_; }
+
+ private:
+  std::string bytes_;
+};
+
+class ByteReader {
+ public:
+  ByteReader(const std::string& bytes, const std::string& path) : bytes_(bytes), path_(path) {
+    if (bytes_.size() < sizeof(std::uint64_t)) fail("file too short");
+    Fnv1a h;
+    h.add(bytes_.data(), bytes_.size() - sizeof(std::uint64_t));
+    std::uint64_t stored = 0;
+    std::memcpy(&stored, bytes_.data() + bytes_.size() - sizeof(stored), sizeof(stored));
+    if (stored != h.value) fail("checksum mismatch (truncated or damaged file)");
+    end_ = bytes_.size() - sizeof(std::uint64_t);
+  }
+  template <class T>
+  T get() {
+    T v;
+    take(&v, sizeof(T));
+    return v;
+  }
+  template <class T>
+  void get(std::vector<T>& v) {
+    const auto n = get<std::uint64_t>();
+    if (n > (end_ - at_) / std::max<std::size_t>(sizeof(T), 1)) fail("vector length beyond the end of the file");
+    v.resize(n);
+    take(v.data(), n * sizeof(T));
+  }
+  void take(void* out, std::size_t n) {
+    if (end_ - at_ < n) fail("unexpected end of file");
+    std::memcpy(out, bytes_.data() + at_, n);
+    at_ += n;
+  }
+  bool done() const { return at_ == end_; }
+  [[noreturn]] void fail(const std::string& why) const {
+    throw std::runtime_error("checkpoint '" + path_ + "': " + why);
+  }
+
+ private:
+  const std::string& bytes_;
+  std::string path_;
+  std::size_t at_ = 0, end_ = 0;
+};
+
+// One list of the fields, used for both directions, so save and load cannot drift apart.
+template <class Io, class T>  // T: PairContacts, const or not
+void pair_fields(Io& io, T& c) {
+  io(c.key), io(c.i), io(c.j), io(c.constants), io(c.history), io(c.overlap), io(c.work), io(c.elastic), io(c.force),
+      io(c.torque_i), io(c.torque_j);
+}
+template <class Io, class T>  // T: WallContacts, const or not
+void wall_fields(Io& io, T& c) {
+  io(c.key), io(c.particle), io(c.wall), io(c.feature), io(c.constants), io(c.history), io(c.overlap), io(c.work),
+      io(c.elastic), io(c.point), io(c.force), io(c.torque), io(c.rolling_torque);
+}
+template <class Io, class T>  // T: State, const or not
+void state_fields(Io& io, T& s) {
+  io(s.id), io(s.position), io(s.velocity), io(s.angular_velocity), io(s.force), io(s.torque), io(s.radius),
+      io(s.inv_mass), io(s.inv_inertia), io(s.material), io(s.level), io(s.index_of_id);
+}
+
+}  // namespace
+
+void World::save_checkpoint(const std::string& path, std::uint64_t scene_hash) const {
+  ByteWriter w;
+  w.bytes().append(checkpoint_magic, sizeof checkpoint_magic);
+  w.put(checkpoint_version);
+  w.put(scene_hash);
+  w.put(clock_.interval);
+  w.put(clock_.tick);
+  for (std::uint64_t v : {counters_.sync_intervals, counters_.accepted_steps, counters_.rejected_steps,
+                          counters_.forced_steps, counters_.particle_steps, counters_.force_evaluations,
+                          counters_.pair_rebuilds})
+    w.put(v);
+  w.put(ended_dissipation_);
+  auto io = [&](auto& v) { w.put(v); };
+  state_fields(io, state_);
+  pair_fields(io, pairs_);
+  wall_fields(io, wall_contacts_);
+  w.put(candidates_.row_start);
+  w.put(candidates_.partner);
+  const auto reference = skin_tracker_.reference();
+  w.put(std::vector<Vec3>(reference.begin(), reference.end()));
+  write_file_atomically(path, w.finish());
+}
+
+void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot open checkpoint '" + path + "'");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string bytes = buffer.str();
+  ByteReader r(bytes, path);
+  char magic[sizeof checkpoint_magic];
+  r.take(magic, sizeof magic);
+  if (std::memcmp(magic, checkpoint_magic, sizeof magic) != 0) r.fail("not a dem checkpoint");
+  if (r.get<std::uint32_t>() != checkpoint_version) r.fail("written by another checkpoint format version");
+  if (r.get<std::uint64_t>() != scene_hash)
+    r.fail("it belongs to a scene with different physics (the scene, or a --set of it, changed since)");
+  Clock clock;
+  clock.interval = r.get<std::int64_t>();
+  clock.tick = r.get<std::int64_t>();
+  RunCounters counters;
+  for (std::uint64_t* v : {&counters.sync_intervals, &counters.accepted_steps, &counters.rejected_steps,
+                           &counters.forced_steps, &counters.particle_steps, &counters.force_evaluations,
+                           &counters.pair_rebuilds})
+    *v = r.get<std::uint64_t>();
+  const Real ended = r.get<Real>();
+  State state;
+  PairContacts pairs;
+  WallContacts walls;
+  broadphase::CandidatePairs candidates;
+  std::vector<Vec3> reference;
+  auto io = [&](auto& v) { r.get(v); };
+  state_fields(io, state);
+  pair_fields(io, pairs);
+  wall_fields(io, walls);
+  r.get(candidates.row_start);
+  r.get(candidates.partner);
+  r.get(reference);
+  if (!r.done()) r.fail("unexpected bytes after the last field");
+  if (state.size() != state_.size()) r.fail("particle count differs from the scene's");
+  if (!broadphase::is_valid(candidates, state.size())) r.fail("damaged neighbour list");
+  // Everything read and checked: commit.
+  clock_ = clock;
+  counters_ = counters;
+  ended_dissipation_ = ended;
+  state_ = std::move(state);
+  pairs_ = std::move(pairs);
+  wall_contacts_ = std::move(walls);
+  candidates_ = std::move(candidates);
+  skin_tracker_.reset(reference);
+  walls_.set_time(time());
+  build_pair_adjacency(state_.size(), pairs_, adjacency_);
+  adjacency_.wall_start.assign(state_.size() + 1, 0);
+  for (std::size_t k = 0; k < wall_contacts_.size(); ++k) ++adjacency_.wall_start[wall_contacts_.particle[k] + 1];
+  for (std::size_t p = 0; p < state_.size(); ++p) adjacency_.wall_start[p + 1] += adjacency_.wall_start[p];
 }
 
 }  // namespace dem

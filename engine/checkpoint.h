@@ -1,6 +1,8 @@
 #pragma once
-// State hashing (and, later, checkpoints). The hash covers everything that determines the future of
-// a run: particle kinematics in ParticleId order, contact keys and histories, and the clock.
+// State hashing and checkpoints. The hash covers everything that determines the future of a run:
+// particle kinematics in ParticleId order, contact keys and histories, and the clock. Checkpoints
+// (World::save_checkpoint / load_checkpoint, defined in checkpoint.cpp) hold the full state, so a
+// resumed run continues bit for bit.
 #include <cstdint>
 
 #include "engine/contacts.h"

@@ -38,7 +38,7 @@ struct Scene {
   Real max_initial_overlap = 0.01;   // relative to the smaller radius of a pair [-]
   std::vector<ParticleSource> sources;  // one per particle of world.particles
   std::vector<std::uint64_t> seeds;     // generator seeds, for provenance
-  std::uint64_t physics_hash = 0;       // hash of the resolved scene text, for checkpoints
+  std::uint64_t physics_hash = 0;       // hash of the resolved scene without [run] and [output], for checkpoints
 };
 
 }  // namespace dem

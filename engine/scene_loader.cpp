@@ -633,8 +633,13 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   top.finish();
   if (scene.world.particles.empty())
     top.fail("particles", "the scene has no particles: add [[particles]], [[particle_files]] or [[generators]]");
+  // The physics hash ignores how long the run lasts and what it writes, so a run can be resumed
+  // with another end time or output interval, but never with other physics.
+  toml::table physics = root;
+  physics.erase("run");
+  physics.erase("output");
   std::ostringstream resolved;
-  resolved << root;
+  resolved << physics;
   scene.physics_hash = fnv1a(resolved.str());
   check_initial_state(scene);
   return scene;

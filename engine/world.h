@@ -9,6 +9,7 @@
 // control of its own threads. Results are bitwise identical for any thread count.
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <tbb/task_arena.h>
@@ -89,6 +90,13 @@ class World {
   /// Total linear momentum of finite-mass particles [kg m/s].
   Vec3 linear_momentum() const;
   std::uint64_t state_hash() const;
+  /// Checkpoint of the full state (particles, contacts with history, clock, counters, neighbour
+  /// lists) in a binary file written atomically; `scene_hash` identifies the physics it belongs to.
+  void save_checkpoint(const std::string& path, std::uint64_t scene_hash) const;
+  /// Restores a checkpoint of a world built from the same scene; throws std::runtime_error when the
+  /// file is not a checkpoint, is damaged, or belongs to other physics (another scene_hash).
+  void load_checkpoint(const std::string& path, std::uint64_t scene_hash);
+
   /// Heap bytes held by particle, contact and broadphase arrays (capacities, scratch included).
   std::size_t memory_bytes() const;
 

@@ -15,6 +15,7 @@ struct RunOptions {
   double until = -1;                   // -1: the scene's run.until [s]
   std::vector<std::string> overrides;  // --set key.path=value
   bool quiet = false;
+  std::string resume;                  // checkpoint to continue from
 };
 
 int run_command(const RunOptions& options);

@@ -24,6 +24,8 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   run_cmd->add_option("--set", run.overrides, "override a scene value: key.path=value (repeatable)");
   run_cmd->add_flag("--quiet", run.quiet, "no progress bar or final line");
+  run_cmd->add_option("--resume", run.resume, "continue bit for bit from a checkpoint of this scene")
+      ->check(CLI::ExistingFile);
 
   std::string check_scene;
   std::vector<std::string> check_overrides;

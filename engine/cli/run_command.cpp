@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "engine/input_error.h"
 #include "engine/output.h"
 #include "engine/particle_csv.h"
 #include "engine/world.h"
@@ -152,20 +153,42 @@ int run_command(const RunOptions& options) {
 
   const auto start_wall = std::chrono::steady_clock::now();
   World world(scene.world);
+  if (!options.resume.empty()) {
+    try {
+      world.load_checkpoint(options.resume, scene.physics_hash);
+    } catch (const std::runtime_error& e) {
+      throw InputError(options.resume, 0, 0, "--resume", e.what());
+    }
+  }
   const JsonObject start_energy = energy_json(world);
 
   std::vector<std::string> wall_names;
   for (std::size_t w = 0; w < world.walls().count(); ++w) wall_names.push_back(world.walls().config(w).name);
-  // A new run starts its append-only files afresh (the writers would otherwise append: resume).
-  for (const char* file : {"series.csv", "walls.csv", "particles.pvd", "walls.pvd"}) std::filesystem::remove(out / file);
+  // A new run starts its append-only files afresh; a resumed one keeps what was written up to the
+  // checkpoint's time and drops anything later (written after the checkpoint by the run that died).
+  const bool resuming = !options.resume.empty();
+  if (!resuming)
+    for (const char* file : {"series.csv", "walls.csv", "particles.pvd", "walls.pvd"}) std::filesystem::remove(out / file);
   SeriesWriter series(out / "series.csv", series_columns());
   SeriesWriter walls(out / "walls.csv", wall_columns(wall_names));
   PvdIndex particles_pvd(out / "particles.pvd");
   PvdIndex walls_pvd(out / "walls.pvd");
+  if (resuming) {
+    series.truncate_after(world.time());
+    walls.truncate_after(world.time());
+    particles_pvd.truncate_after(world.time());
+    walls_pvd.truncate_after(world.time());
+  }
 
   const Real interval = scene.output.interval;
   const Real snapshot_interval = scene.output.snapshot_interval;
-  std::int64_t next_row = 0, next_snapshot = 0, snapshot_count = 0;
+  // Output schedule: the next multiple of each interval; a resumed run already wrote the current one.
+  std::int64_t next_row = 0, next_snapshot = 0;
+  std::int64_t snapshot_count = static_cast<std::int64_t>(particles_pvd.entries().size());
+  if (resuming) {
+    next_row = static_cast<std::int64_t>(std::floor(world.time() / interval)) + 1;
+    if (snapshot_interval > 0) next_snapshot = static_cast<std::int64_t>(std::floor(world.time() / snapshot_interval)) + 1;
+  }
   // Writes what is due at the current sync time (everything when `final_row`); true if anything was.
   auto write_outputs = [&](bool final_row) {
     const Real t = world.time();
@@ -191,7 +214,7 @@ int run_command(const RunOptions& options) {
     }
     return wrote;
   };
-  write_outputs(false);
+  if (!resuming) write_outputs(false);
 
   ProgressBar progress(!options.quiet && isatty(STDERR_FILENO), world.time(), scene.run.until);
   StepStatus status = StepStatus::ok;
@@ -270,6 +293,11 @@ int run_command(const RunOptions& options) {
       .add("state_hash", hex(world.state_hash()))
       .add("provenance", provenance);
   write_file_atomically(out / "summary.json", summary.dump(2) + "\n");
+  if (status == StepStatus::ok) {
+    char name[64];
+    std::snprintf(name, sizeof name, "checkpoint_%.9g.bin", world.time());
+    world.save_checkpoint((out / name).string(), scene.physics_hash);
+  }
 
   if (status != StepStatus::ok) {
     std::fprintf(stderr, "dem: the run diverged at t = %.9g s (non-finite positions or velocities); reduce integrator.dt\n",
