@@ -11,7 +11,7 @@ namespace dem {
 
 struct RunSettings {
   Real until = 1;                    // simulated end time [s]
-  Real stop_kinetic_energy = -1;     // stop once kinetic + rotational energy falls below this [J]; negative: off
+  Real stop_kinetic_energy = -1;     // stop once the translational kinetic energy falls below this [J]; negative: off
   Real stop_check_after = 0;         // earliest time the kinetic-energy stop applies [s]
 };
 

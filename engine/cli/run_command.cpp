@@ -226,7 +226,9 @@ int run_command(const RunOptions& options) {
     if (write_outputs(false)) last_written = world.time();
     if (scene.run.stop_kinetic_energy > 0 && world.time() >= scene.run.stop_check_after) {
       const Energies e = world.energies();
-      if (e.kinetic + e.rotational < scene.run.stop_kinetic_energy) {
+      // Translational only: a particle spinning about its contact normal (nothing resists that spin)
+      // does not move and must not keep a settled bed from being written.
+      if (e.kinetic < scene.run.stop_kinetic_energy) {
         stop_reason = "kinetic energy below run.stop_kinetic_energy";
         break;
       }
