@@ -187,6 +187,7 @@ class TableReader {
       std::vector<std::string> known(used_.begin(), used_.end());
       message += " Valid keys here: " + join(known);
       const toml::source_region& where = value.source();
+      if (where.begin.line == 0) message += " (set on the command line)";
       throw InputError(file_, static_cast<int>(where.begin.line), static_cast<int>(where.begin.column), field(k),
                        message);
     }
