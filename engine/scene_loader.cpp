@@ -52,9 +52,33 @@ class TableReader {
 
   [[noreturn]] void fail(const std::string& key, const std::string& message) const {
     const toml::node* node = table_.get(key);
+    if (!node) {
+      // A missing key is often a misspelt one: point at the near miss and name the key wanted.
+      if (const auto near = near_miss(key))
+        fail_at(near->second, key, message + "; found '" + near->first + "': did you mean '" + key + "'?");
+    }
+    fail_at(node, key, message);
+  }
+
+  /// Like fail, located at `node` (the table itself when null).
+  [[noreturn]] void fail_at(const toml::node* node, const std::string& key, const std::string& message) const {
     const toml::source_region& where = node ? node->source() : table_.source();
     throw InputError(file_, static_cast<int>(where.begin.line), static_cast<int>(where.begin.column), field(key),
                      message + (where.begin.line == 0 ? " (set on the command line)" : ""));
+  }
+
+  /// The key of this table closest to `key` that no getter has asked for: edit distance 1 for short keys,
+  /// up to 3 for long ones (so "max" is not taken for a misspelt "min").
+  std::optional<std::pair<std::string, const toml::node*>> near_miss(const std::string& key) const {
+    std::optional<std::pair<std::string, const toml::node*>> best;
+    std::size_t best_distance = std::min<std::size_t>(4, std::max<std::size_t>(2, key.size() / 5 + 1));
+    for (const auto& [k, value] : table_) {
+      const std::string name(k.str());
+      if (used_.count(name)) continue;
+      const std::size_t d = edit_distance(name, key);
+      if (d > 0 && d < best_distance) best.emplace(name, &value), best_distance = d;
+    }
+    return best;
   }
 
   bool has(const std::string& key) {
@@ -137,7 +161,7 @@ class TableReader {
       const toml::node& e = *a->get(i);
       if (auto d = e.value_exact<double>()) v[static_cast<int>(i)] = *d;
       else if (auto n = e.value_exact<int64_t>()) v[static_cast<int>(i)] = static_cast<Real>(*n);
-      else fail(key, "expected an array of 3 numbers [x, y, z]");
+      else fail_at(e.source().begin.line == 0 ? &e : node, key, "expected an array of 3 numbers [x, y, z]");
     }
     if (!v.allFinite()) fail(key, "components must be finite");
     return v;

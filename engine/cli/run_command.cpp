@@ -118,6 +118,23 @@ std::string hex(std::uint64_t v) {
   return text;
 }
 
+/// When an output is due: at the first sync time at or after each multiple k * interval. Sync times
+/// are products of integers and dt, so k * interval itself may round a hair above the sync time
+/// meant to hit it (0.1 * 3 > 0.3): a tolerance of 1e-9 interval absorbs that.
+class OutputSchedule {
+ public:
+  explicit OutputSchedule(Real interval) : interval_(interval) {}
+  bool enabled() const { return interval_ > 0; }
+  bool due(Real t) const { return enabled() && t >= (static_cast<Real>(next_) - tolerance) * interval_; }
+  /// Marks the output at time t done: the next is the first multiple after t.
+  void done_at(Real t) { next_ = std::max(next_ + 1, static_cast<std::int64_t>(std::floor(t / interval_ + tolerance)) + 1); }
+
+ private:
+  static constexpr Real tolerance = 1e-9;
+  Real interval_;
+  std::int64_t next_ = 0;
+};
+
 class ProgressBar {
  public:
   ProgressBar(bool enabled, Real start, Real end) : enabled_(enabled), start_(start), end_(end) {}
@@ -182,24 +199,24 @@ int run_command(const RunOptions& options) {
 
   const Real interval = scene.output.interval;
   const Real snapshot_interval = scene.output.snapshot_interval;
-  // Output schedule: the next multiple of each interval; a resumed run already wrote the current one.
-  std::int64_t next_row = 0, next_snapshot = 0;
+  // Output schedules; a resumed run already wrote what was due at the checkpoint's time.
+  OutputSchedule rows(interval), snapshots(snapshot_interval);
   std::int64_t snapshot_count = static_cast<std::int64_t>(particles_pvd.entries().size());
   if (resuming) {
-    next_row = static_cast<std::int64_t>(std::floor(world.time() / interval)) + 1;
-    if (snapshot_interval > 0) next_snapshot = static_cast<std::int64_t>(std::floor(world.time() / snapshot_interval)) + 1;
+    rows.done_at(world.time());
+    if (snapshots.enabled()) snapshots.done_at(world.time());
   }
   // Writes what is due at the current sync time (everything when `final_row`); true if anything was.
   auto write_outputs = [&](bool final_row) {
     const Real t = world.time();
     bool wrote = false;
-    if (t >= next_row * interval || final_row) {
+    if (rows.due(t) || final_row) {
       wrote = true;
       series.append(series_row(world));
       walls.append(wall_row(world));
-      next_row = std::max(next_row + 1, static_cast<std::int64_t>(std::floor(t / interval)) + 1);  // t / interval may round down
+      rows.done_at(t);
     }
-    if (snapshot_interval > 0 && (t >= next_snapshot * snapshot_interval || final_row)) {
+    if (snapshots.due(t) || (snapshots.enabled() && final_row)) {
       const std::string name = "particles_" + std::to_string(snapshot_count) + ".vtp";
       write_particles_vtp(out / name, snapshot_of(world));
       particles_pvd.add(t, name);
@@ -209,7 +226,7 @@ int run_command(const RunOptions& options) {
         walls_pvd.add(t, wall_name);
       }
       ++snapshot_count;
-      next_snapshot = std::max(next_snapshot + 1, static_cast<std::int64_t>(std::floor(t / snapshot_interval)) + 1);
+      snapshots.done_at(t);
       wrote = true;
     }
     return wrote;
