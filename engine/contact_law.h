@@ -56,53 +56,87 @@ inline Vec3 project_keep_length(const Vec3& v, const Vec3& n) {
   return p;
 }
 
-/// Spring-dashpot-slider on one channel: history s advanced by rate * h, trial value
-/// -k s - c rate, held while within `hold_limit` (mode bit clear), otherwise limited to
-/// `slide_limit` along the trial direction with the spring reset to match (PHYSICS.md 1.3).
-/// Slide -> stick needs the trial within min(kinetic, static) limits, so a contact cannot
-/// alternate every step when mu_s < mu.
-inline Vec3 spring_slider(Vec3& spring, std::uint8_t& mode, std::uint8_t bit, const Vec3& rate, Real k, Real c,
-                          Real static_limit, Real kinetic_limit, Real h) {
-  spring += rate * h;
-  const Vec3 trial = -k * spring - c * rate;
-  const bool was_sliding = (mode & bit) != 0;
-  const Real hold_limit = was_sliding ? std::min(static_limit, kinetic_limit) : static_limit;
-  const Real trial_norm = trial.norm();
-  if (trial_norm <= hold_limit) {
-    mode = static_cast<std::uint8_t>(mode & ~bit);
-    return trial;
-  }
-  mode = static_cast<std::uint8_t>(mode | bit);
-  const Vec3 limited = trial * (kinetic_limit / trial_norm);
-  spring = -(limited + c * rate) / k;
-  return limited;
-}
-
-/// Rolling resistance as Ai et al. (2011) model C: an elastic-plastic rotational spring whose elastic
-/// torque -k theta is capped (static limit to leave the static state, the smaller of the two limits
-/// to return to it, the kinetic limit while rolling), plus a viscous torque only while static, the
-/// sum bounded by the static limit.
-/// Capping the spring alone, not spring plus dashpot, keeps the dashpot from breaking a hold that the
-/// spring could carry (PHYSICS.md 1.4).
-inline Vec3 rolling_spring(Vec3& spring, std::uint8_t& mode, const Vec3& rate, Real k, Real c, Real static_limit,
-                           Real kinetic_limit, Real h) {
+/// Tangential spring-dashpot-slider (PHYSICS.md 1.3, 1.5): while stuck, the spring xi advances by
+/// u_t h and the force is -k xi - c u_t; while sliding, F_t = -mu F_n along the slip.
+///  - Stick -> slide when the spring force exceeds mu_s F_n, or when the contact slips so fast that
+///    the dashpot alone would need more than mu_s F_n (a sphere launched sliding slides at once, not
+///    after its spring has wound up at the static force).
+///  - Slide -> stick only when the slip reaches zero within the step (u_t turns against the spring)
+///    and the spring force is within mu_s F_n; a rise of F_n alone (the normal spring oscillates)
+///    must not stick a contact that still slips.
+/// Only the spring force decides, not spring plus dashpot (see rolling_spring for why); while stuck
+/// the sum is bounded by mu_s F_n, so |F_t| <= mu_s F_n always.
+inline Vec3 spring_slider(Vec3& spring, std::uint8_t& mode, const Vec3& rate, Real k, Real c, Real static_limit,
+                          Real kinetic_limit, Real h) {
+  const bool was_sliding = (mode & mode_sliding) != 0;
+  const bool reversed = was_sliding && rate.dot(spring) < 0;
   spring += rate * h;
   Vec3 elastic = -k * spring;
-  const bool was_rolling = (mode & mode_rolling) != 0;
-  const Real hold_limit = was_rolling ? std::min(static_limit, kinetic_limit) : static_limit;
   const Real elastic_norm = elastic.norm();
-  if (elastic_norm <= hold_limit) {
-    mode = static_cast<std::uint8_t>(mode & ~mode_rolling);
-    // The dashpot acts while static, but the total never exceeds what static friction can supply.
-    Vec3 total = elastic - c * rate;
+  const Vec3 viscous = -c * rate;
+  const bool hold = elastic_norm <= static_limit && (was_sliding ? reversed : viscous.norm() <= static_limit);
+  if (hold) {
+    mode = static_cast<std::uint8_t>(mode & ~mode_sliding);
+    Vec3 total = elastic + viscous;
     const Real total_norm = total.norm();
     if (total_norm > static_limit) total *= static_limit / total_norm;
     return total;
   }
+  mode = static_cast<std::uint8_t>(mode | mode_sliding);
+  const Real rate_norm = rate.norm();
+  // Against the slip; along the spring when the slip vanishes exactly.
+  const Vec3 direction = rate_norm > 0 ? Vec3(-rate / rate_norm) : elastic_norm > 0 ? Vec3(elastic / elastic_norm) : Vec3(Vec3::Zero());
+  const Vec3 force = kinetic_limit * direction;
+  spring = -force / k;
+  return force;
+}
+
+/// Rolling resistance (PHYSICS.md 1.4, 1.5): a static hold by a rotational spring-dashpot (Ai et al.
+/// 2011 model C) and, once rolling, the constant kinetic torque -mu_r R* F_n along omega_r.
+/// `inertia` is I* of the relative rotation [kg m^2].
+///  - Static -> rolling when the spring torque exceeds the static limit, or when the contact turns so
+///    fast that the dashpot alone would need more than the static limit to stop it (the hold cannot be
+///    kept: on the seed slope this starts rolling within a few steps, as the constant-torque oracle
+///    assumes, instead of after the slow spring has wound up).
+///  - Rolling -> static only when omega_r reverses within the step (the roll has stopped); the spring
+///    then starts unloaded. A load change alone never ends rolling (that would chatter when
+///    mu_r < mu_rs).
+///  - Only the spring torque is compared with the static limit, not spring plus dashpot: a suddenly
+///    loaded spring-dashpot transmits more than its load for a while (even critically damped), which
+///    broke holds that the rigid contact keeps (a sphere set down on a slope, PHYSICS.md 6.4). The
+///    viscous torque is bounded on its own by the static limit.
+/// Stability: forces see the half-step velocity, so a dashpot c alone maps omega_r to
+/// (1 - c h / I*) omega_r per step; c is capped at I*/h (deadbeat for one contact); several static
+/// contacts on one particle add their c h / I (stable below 2), like the normal dashpots (PHYSICS.md 2).
+inline Vec3 rolling_spring(Vec3& spring, std::uint8_t& mode, const Vec3& rate, Real k, Real c, Real inertia,
+                           Real static_limit, Real kinetic_limit, Real h) {
+  const bool was_rolling = (mode & mode_rolling) != 0;
+  const bool reversed = was_rolling && rate.dot(spring) < 0;
+  spring += rate * h;
+  Vec3 elastic = -k * spring;
+  const Real elastic_norm = elastic.norm();
+  Vec3 viscous = -std::min(c, inertia / h) * rate;
+  const Real viscous_norm = viscous.norm();
+  const bool hold = was_rolling ? reversed : (elastic_norm <= static_limit && viscous_norm <= static_limit);
+  if (hold) {
+    mode = static_cast<std::uint8_t>(mode & ~mode_rolling);
+    if (was_rolling) {
+      // The roll has just stopped: the hold starts unloaded and takes up the torque it needs. Starting
+      // from the kinetic torque instead would hand it back and roll the particle backwards (on the seed
+      // slope 0.4 R F_n against the 0.2 R F_n gravity needs: 0.1 m/s uphill, ringing for seconds).
+      spring.setZero();
+      elastic.setZero();
+    }
+    if (viscous_norm > static_limit) viscous *= static_limit / viscous_norm;
+    return elastic + viscous;
+  }
   mode = static_cast<std::uint8_t>(mode | mode_rolling);
-  elastic *= kinetic_limit / elastic_norm;
-  spring = -elastic / k;
-  return elastic;
+  const Real rate_norm = rate.norm();
+  // Kinetic torque against omega_r; along the spring when omega_r vanishes exactly.
+  const Vec3 direction = rate_norm > 0 ? Vec3(-rate / rate_norm) : elastic_norm > 0 ? Vec3(elastic / elastic_norm) : Vec3(Vec3::Zero());
+  const Vec3 torque = kinetic_limit * direction;
+  spring = -torque / k;
+  return torque;
 }
 
 }  // namespace law_detail
@@ -123,8 +157,8 @@ struct LinearSpringDashpot {
 
     if constexpr (Friction) {
       history.tangential_spring = law_detail::project_keep_length(history.tangential_spring, k.normal);
-      out.force += law_detail::spring_slider(history.tangential_spring, history.mode, mode_sliding,
-                                             k.tangential_velocity, c.k_t, c.c_t, c.mu_s * load, c.mu * load, h);
+      out.force += law_detail::spring_slider(history.tangential_spring, history.mode, k.tangential_velocity, c.k_t,
+                                             c.c_t, c.mu_s * load, c.mu * load, h);
     }
     if constexpr (Rolling != RollingKind::none) {
       bool active = true;
@@ -132,7 +166,7 @@ struct LinearSpringDashpot {
       if (active) {
         history.rolling_spring = law_detail::project_keep_length(history.rolling_spring, k.normal);
         out.rolling_torque = law_detail::rolling_spring(history.rolling_spring, history.mode, k.rolling_velocity,
-                                                        c.k_r, c.c_r, c.mu_rs * c.r_star * load,
+                                                        c.k_r, c.c_r, c.i_star, c.mu_rs * c.r_star * load,
                                                         c.mu_r * c.r_star * load, h);
       } else {
         history.rolling_spring.setZero();

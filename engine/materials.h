@@ -29,6 +29,7 @@ struct LawConstants {
   Real mu, mu_s;        // sliding and static friction
   Real mu_r, mu_rs;     // rolling resistance, kinetic and static
   Real k_r, c_r;        // rolling spring [N m/rad] and dashpot [N m s/rad]
+  Real i_star;          // inertia of the relative rotation (1/I_i + 1/I_j)^-1 [kg m^2]; infinite: no rotation
   Real r_star;          // effective radius [m]
 };
 

@@ -303,12 +303,7 @@ InclineRun incline(Real tan_theta, Real mu, Real mu_s, Real mu_r, Real mu_rs, Re
           kInclineRadius - 0.5 * delta0};
 }
 
-// DISABLED until the static rolling hold survives its loading transient: with the rotational
-// spring-dashpot of Ai et al. model C the spring overshoots while loading from rest and breaks the
-// hold at tan(theta) = 0.25 and 0.29 (0 and 0.1 hold). The quasi-static limits themselves are
-// checked by SphereOnSlowlyTiltingPlaneStartsToMoveAtStaticLimit below. Needs the constraint
-// (torque-needed) treatment of PHYSICS.md 1.4; see the engine-core issue's closing note.
-TEST(ContactPhysics, DISABLED_SphereHoldsOnInclineWhenBothStaticLimitsSuffice) {
+TEST(ContactPhysics, SphereHoldsOnInclineWhenBothStaticLimitsSuffice) {
   // mu_s = 0.5, mu_rs = 0.3 (mu = 0.4 <= mu_s, mu_r = 0.2 <= mu_rs): holds iff tan(theta) <= 0.3.
   // The sphere is put down at rest at its equilibrium overlap, springs unloaded. The static state of
   // PHYSICS.md 1.4 stands for the rigid constraint "the torque needed to keep omega_r = 0, up to
