@@ -66,7 +66,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 1;
+constexpr std::uint32_t checkpoint_version = 2;
 
 class ByteWriter {
  public:
@@ -163,6 +163,8 @@ void World::save_checkpoint(const std::string& path, std::uint64_t scene_hash) c
                           counters_.pair_rebuilds})
     w.put(v);
   w.put(ended_dissipation_);
+  w.put(exact_dissipated_);
+  w.put(candidate_skin_);
   auto io = [&](auto& v) { w.put(v); };
   state_fields(io, state_);
   pair_fields(io, pairs_);
@@ -196,6 +198,8 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
                            &counters.pair_rebuilds})
     *v = r.get<std::uint64_t>();
   const Real ended = r.get<Real>();
+  const Real exact_dissipated = r.get<Real>();
+  const Real candidate_skin = r.get<Real>();
   State state;
   PairContacts pairs;
   WallContacts walls;
@@ -215,6 +219,8 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   clock_ = clock;
   counters_ = counters;
   ended_dissipation_ = ended;
+  exact_dissipated_ = exact_dissipated;
+  candidate_skin_ = candidate_skin;
   state_ = std::move(state);
   pairs_ = std::move(pairs);
   wall_contacts_ = std::move(walls);

@@ -516,9 +516,14 @@ void read_integrator(TableReader& top, Scene& scene) {
   c.dx_min = r.positive("dx_min", c.dx_min);
   c.richardson = r.boolean("richardson", c.richardson);
   r.finish();
-  if (c.method == Method::exact || c.control == Control::doubling)
-    r.fail(c.method == Method::exact ? "method" : "control",
-           "not available yet in this build: use method = \"verlet\" and control = \"fixed\"");
+  if (c.control == Control::doubling)
+    r.fail("control", "not available yet in this build: use control = \"fixed\"");
+  if (c.method == Method::exact)
+    for (const ContactConfig& contact : scene.world.contacts)
+      if (contact.sliding_friction > 0 || contact.static_friction > 0 || contact.rolling_friction > 0 ||
+          contact.rolling_static_friction > 0)
+        r.fail("method", "method = \"exact\" handles frictionless contacts so far: this scene has friction or "
+                         "rolling resistance; use method = \"verlet\"");
 }
 
 void read_run_and_output(TableReader& top, Scene& scene) {

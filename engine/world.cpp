@@ -7,6 +7,7 @@
 #include <tbb/task_arena.h>
 
 #include "engine/checkpoint.h"
+#include "engine/exact_stepper.h"
 #include "engine/integrators.h"
 #include "engine/parallel.h"
 
@@ -27,13 +28,16 @@ World::World(const WorldConfig& config)
       scheduler_(config.integrator) {
   if (config_.model.dimension != 2 && config_.model.dimension != 3)
     throw std::invalid_argument("model.dimension must be 2 or 3");
-  if (config_.integrator.method != Method::verlet || config_.integrator.control != Control::fixed)
-    throw std::invalid_argument("only method verlet with control fixed is implemented so far");
+  if (config_.integrator.control != Control::fixed)
+    throw std::invalid_argument("only control fixed is implemented so far");
   threads_ = config_.threads > 0 ? config_.threads : tbb::info::default_concurrency();
   arena_ = std::make_unique<tbb::task_arena>(threads_);
   gravity_ = config_.model.gravity;
   kernels_ = select_force_kernels(config_.model.separation, materials_.any_friction(),
                                   rolling_kind(materials_, config_.model.rolling_mode));
+  if (config_.integrator.method == Method::exact && (materials_.any_friction() || materials_.any_rolling()))
+    throw std::invalid_argument("method exact handles frictionless contacts so far: set friction and rolling "
+                                "resistance to 0, or use method verlet");
   add_particles();
   if (config_.broadphase.skin >= 0) {
     skin_ = config_.broadphase.skin;
@@ -42,6 +46,7 @@ World::World(const WorldConfig& config)
     for (Real r : state_.radius) r_min = std::min(r_min, r);
     skin_ = 0.1 * r_min;
   }
+  candidate_skin_ = skin_;
   arena_->execute([&] { evaluate_forces(0, true); });
   // Energy already in the springs at the start was not dissipated: count it as work done on them.
   pairs_.work = pairs_.elastic;
@@ -72,14 +77,7 @@ void World::add_particles() {
 
 void World::evaluate_forces(Real h, bool force_rebuild) {
   const std::size_t n = state_.size();
-  if (force_rebuild || skin_tracker_.needs_rebuild(state_.position, skin_)) {
-    if (config_.broadphase.use_kd_tree)
-      kd_tree_.find_pairs(state_.position, state_.radius, skin_, candidates_);
-    else
-      grid_.find_pairs(state_.position, state_.radius, skin_, candidates_);
-    skin_tracker_.reset(state_.position);
-    ++counters_.pair_rebuilds;
-  }
+  if (force_rebuild || skin_tracker_.needs_rebuild(state_.position, candidate_skin_)) rebuild_candidates();
   ended_dissipation_ += update_pair_contacts(state_, candidates_, materials_, pairs_, workspace_);
   build_pair_adjacency(n, pairs_, adjacency_);
   ended_dissipation_ +=
@@ -90,19 +88,50 @@ void World::evaluate_forces(Real h, bool force_rebuild) {
   counters_.force_evaluations += n;
 }
 
+void World::rebuild_candidates() {
+  if (config_.broadphase.use_kd_tree)
+    kd_tree_.find_pairs(state_.position, state_.radius, candidate_skin_, candidates_);
+  else
+    grid_.find_pairs(state_.position, state_.radius, candidate_skin_, candidates_);
+  skin_tracker_.reset(state_.position);
+  ++counters_.pair_rebuilds;
+}
+
+void World::step_exact(Real h) {
+  // The candidates must hold every pair the step may include (gap within anticipation_factor times
+  // the relative reach, at most 2 reach): they cover gaps up to skin - 2 * (moves since the build),
+  // so rebuild, with a skin wide enough for a few such steps, before that could fall short.
+  const Real reach = anticipation_factor * max_free_displacement(state_, gravity_, h);
+  if (skin_tracker_.max_displacement(state_.position) + reach > 0.5 * candidate_skin_) {
+    candidate_skin_ = std::max(skin_, 4 * reach);
+    rebuild_candidates();
+  }
+  const ExactSettings settings{config_.model.separation, gravity_, config_.model.dimension};
+  exact_dissipated_ += exact_step(state_, walls_, materials_, candidates_, settings, h, exact_work_);
+}
+
 StepStatus World::advance_sync_interval() {
-  // Fixed control: one velocity Verlet step of dt per sync interval, every particle at level 0.
+  // Fixed control: one step of dt per sync interval, every particle at level 0. Velocity Verlet:
+  // kick, drift, forces, kick. Exact: scheme (D) of exact pair flows (exact_stepper.h), then the
+  // contact forces of the new state for outputs (springs, wall loads; h = 0 leaves histories alone).
   const Real h = scheduler_.sync_interval();
   const bool rotation = kernels_.uses_rotation;
   const int dim = config_.model.dimension;
   bool finite = true;
   arena_->execute([&] {
-    kick(state_, 0.5 * h, gravity_, rotation, dim);
-    drift(state_, h);
-    ++clock_.interval;
-    walls_.set_time(time());
-    evaluate_forces(h, false);
-    kick(state_, 0.5 * h, gravity_, rotation, dim);
+    if (config_.integrator.method == Method::exact) {
+      step_exact(h);
+      ++clock_.interval;
+      walls_.set_time(time());
+      evaluate_forces(0, false);
+    } else {
+      kick(state_, 0.5 * h, gravity_, rotation, dim);
+      drift(state_, h);
+      ++clock_.interval;
+      walls_.set_time(time());
+      evaluate_forces(h, false);
+      kick(state_, 0.5 * h, gravity_, rotation, dim);
+    }
     finite = state_is_finite();
   });
   const std::uint64_t n = state_.size();
@@ -166,6 +195,7 @@ Vec3 World::linear_momentum() const {
 }
 
 Real World::dissipated_energy() const {
+  if (config_.integrator.method == Method::exact) return exact_dissipated_;
   Real live = 0;
   arena_->execute([&] {
     live = live_dissipation(pairs_.work, pairs_.elastic) + live_dissipation(wall_contacts_.work, wall_contacts_.elastic);

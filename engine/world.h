@@ -20,6 +20,7 @@
 #include "broadphase/skin.h"
 #include "engine/config.h"
 #include "engine/contacts.h"
+#include "engine/exact_stepper.h"
 #include "engine/forces.h"
 #include "engine/materials.h"
 #include "engine/scheduler.h"
@@ -103,6 +104,8 @@ class World {
  private:
   void add_particles();
   void evaluate_forces(Real h, bool force_rebuild);
+  void rebuild_candidates();
+  void step_exact(Real h);
   bool state_is_finite() const;
 
   WorldConfig config_;
@@ -128,6 +131,9 @@ class World {
   ContactWorkspace workspace_;
   RunCounters counters_;
   Real ended_dissipation_ = 0;  // dissipated by contacts that have ended [J]
+  Real candidate_skin_ = 0;     // skin of the current candidate list [m] (the exact stepper widens it)
+  ExactWorkspace exact_work_;
+  Real exact_dissipated_ = 0;   // energy the exact stepper's contacts dissipated [J]
 };
 
 }  // namespace dem
