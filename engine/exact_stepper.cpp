@@ -114,18 +114,28 @@ NormalOscillator oscillator_of(const LawConstants& c, Real m_star) {
 }
 
 /// The interactions of this step: candidate pairs and wall features that can touch within h.
+/// Key of an interaction for the sorted `forced` list: particle, then partner slot or wall feature.
+std::uint64_t interaction_key(ParticleIndex a, std::uint64_t partner) { return (std::uint64_t{a} << 32) | partner; }
+std::uint64_t wall_partner(std::size_t w, std::uint32_t f) { return 0x80000000u | (w << 8) | f; }
+
+bool forced_contains(const std::vector<std::uint64_t>& forced, std::uint64_t key) {
+  return std::binary_search(forced.begin(), forced.end(), key);
+}
+
 void collect_interactions(const State& s, const Walls& walls, const MaterialTable& materials,
                           const broadphase::CandidatePairs& candidates, const ExactSettings& set, Real h,
                           ExactWorkspace& work) {
   const std::size_t n = s.size();
   auto pair_interacts = [&](ParticleIndex a, ParticleIndex b) {
     if (s.inv_mass[a] == 0 && s.inv_mass[b] == 0) return false;
+    if (forced_contains(work.forced, interaction_key(a, b))) return true;
     const Real gap = (s.position[a] - s.position[b]).norm() - s.radius[a] - s.radius[b];
     const Vec3 dg = gravity_of(s, a, set.gravity) - gravity_of(s, b, set.gravity);
     return gap <= anticipation_factor * ((s.velocity[a] - s.velocity[b]).norm() * h + 0.5 * dg.norm() * h * h);
   };
   auto wall_interacts = [&](ParticleIndex p, std::size_t w, std::uint32_t f) {
     if (s.inv_mass[p] == 0) return false;
+    if (forced_contains(work.forced, interaction_key(p, wall_partner(w, f)))) return true;
     const Real reach = anticipation_factor * ((s.velocity[p] - walls.velocity_at(w, s.position[p])).norm() * h +
                                               0.5 * set.gravity.norm() * h * h);
     WallTouch t;
@@ -175,9 +185,65 @@ Real max_free_displacement(const State& s, const Vec3& gravity, Real h) {
   return largest;
 }
 
+namespace {
+
+/// Contacts touching at the end of a step that were not among its interactions (so no force acted
+/// on them), appended to `missed` as sorted interaction keys.
+void find_missed(const State& s, const Walls& walls, const broadphase::CandidatePairs& candidates,
+                 const std::vector<ExactInteraction>& interactions, std::vector<std::uint64_t>& missed) {
+  std::vector<std::uint64_t> included;
+  included.reserve(interactions.size());
+  for (const ExactInteraction& k : interactions)
+    included.push_back(interaction_key(k.i, k.wall == ExactInteraction::no_wall ? std::uint64_t{k.j}
+                                                                                  : wall_partner(k.wall, k.feature)));
+  std::sort(included.begin(), included.end());
+  auto add_if_missed = [&](std::uint64_t key) {
+    if (!std::binary_search(included.begin(), included.end(), key)) missed.push_back(key);
+  };
+  for (std::size_t a = 0; a < s.size(); ++a) {
+    for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
+      const ParticleIndex b = candidates.partner[k];
+      const Real reach = s.radius[a] + s.radius[b];
+      if ((s.inv_mass[a] > 0 || s.inv_mass[b] > 0) && (s.position[a] - s.position[b]).squaredNorm() < reach * reach)
+        add_if_missed(interaction_key(static_cast<ParticleIndex>(a), b));
+    }
+    WallTouch t;
+    for (std::size_t w = 0; w < walls.count(); ++w)
+      for (std::uint32_t f = 0; f < walls.feature_count(w); ++f)
+        if (s.inv_mass[a] > 0 && walls.touch(w, f, s.position[a], s.radius[a], t))
+          add_if_missed(interaction_key(static_cast<ParticleIndex>(a), wall_partner(w, f)));
+  }
+}
+
+Real compose(State& s, const Walls& walls, const ExactSettings& set, Real h, ExactWorkspace& work);
+
+}  // namespace
+
 Real exact_step(State& s, const Walls& walls, const MaterialTable& materials,
                 const broadphase::CandidatePairs& candidates, const ExactSettings& set, Real h, ExactWorkspace& work) {
-  collect_interactions(s, walls, materials, candidates, set, h, work);
+  // A contact that the anticipation missed (another contact changed a velocity within the step)
+  // would start the next step overlapped, with energy from nothing: redo the step from the saved
+  // state with the missed contacts included, until none is missed.
+  work.saved_position = s.position;
+  work.saved_velocity = s.velocity;
+  work.forced.clear();
+  for (int attempt = 0;; ++attempt) {
+    collect_interactions(s, walls, materials, candidates, set, h, work);
+    const Real dissipated = compose(s, walls, set, h, work);
+    std::vector<std::uint64_t> missed;
+    if (attempt < 8) find_missed(s, walls, candidates, work.interactions, missed);
+    if (missed.empty()) return dissipated;
+    work.forced.insert(work.forced.end(), missed.begin(), missed.end());
+    std::sort(work.forced.begin(), work.forced.end());
+    s.position = work.saved_position;
+    s.velocity = work.saved_velocity;
+    ++work.retries;
+  }
+}
+
+namespace {
+
+Real compose(State& s, const Walls& walls, const ExactSettings& set, Real h, ExactWorkspace& work) {
   // Colour the interaction graph; a wall contact is an edge to a node of its own.
   const std::size_t n = s.size(), m = work.interactions.size();
   work.edge_i.resize(m);
@@ -213,4 +279,5 @@ Real exact_step(State& s, const Walls& walls, const MaterialTable& materials,
   return block_sum<Real>(m, [&](std::size_t k) { return work.interactions[k].dissipated; });
 }
 
+}  // namespace
 }  // namespace dem

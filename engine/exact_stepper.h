@@ -47,6 +47,9 @@ struct ExactWorkspace {
   std::vector<std::uint32_t> count, offset;
   std::vector<ParticleIndex> edge_i, edge_j;
   ContactColoring coloring;
+  std::vector<std::uint64_t> forced;             // interactions a retry must include (sorted keys)
+  std::vector<Vec3> saved_position, saved_velocity;  // the state a retry restarts from
+  std::uint64_t retries = 0;                       // steps redone because a contact was missed
 };
 
 struct ExactSettings {

@@ -499,6 +499,15 @@ TEST(ContactPhysics, VerletEnergyErrorInUndampedPackingIsBoundedWithoutTrend) {
   EXPECT_LE(r.omega_max_h_run, 0.4);
 }
 
+TEST(ContactPhysics, ExactMethodKeepsPackingEnergyWithin3e2AtOmegaMaxDt15) {
+  // PHYSICS.md 6.6, scheme (D) at omega_max h = 1.5, beyond Verlet's stability limit for the packing:
+  // |dE| <= 3e-2 of the initial kinetic + elastic energy, with no trend.
+  const PackingRun r = run_packing(Method::exact, 1.5, 20'000);
+  record(r);
+  EXPECT_LE(r.max_error, 3e-2);
+  EXPECT_LE(r.last_mean, 8 * r.first_mean);
+}
+
 TEST(ContactPhysics, ExactMethodIsRejectedOrKeepsPackingEnergyWithin1e3AtOmegaMaxDt03) {
   // PHYSICS.md 6.6 for scheme (D), the recommended multi-contact exact stepper (3.4): |dE| <= 1e-3 of
   // the initial kinetic + elastic energy at omega_max h = 0.3, with no trend. Until the method exists
