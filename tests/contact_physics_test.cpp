@@ -508,17 +508,9 @@ TEST(ContactPhysics, ExactMethodKeepsPackingEnergyWithin3e2AtOmegaMaxDt15) {
   EXPECT_LE(r.last_mean, 8 * r.first_mean);
 }
 
-TEST(ContactPhysics, ExactMethodIsRejectedOrKeepsPackingEnergyWithin1e3AtOmegaMaxDt03) {
+TEST(ContactPhysics, ExactMethodKeepsPackingEnergyWithin1e3AtOmegaMaxDt03) {
   // PHYSICS.md 6.6 for scheme (D), the recommended multi-contact exact stepper (3.4): |dE| <= 1e-3 of
-  // the initial kinetic + elastic energy at omega_max h = 0.3, with no trend. Until the method exists
-  // the World must refuse it (as scene_loader does), not run something else: then this test skips.
-  WorldConfig c = packing_config(Method::exact);
-  c.integrator.dt = 1e-5;
-  try {
-    const World probe(c);
-  } catch (const std::invalid_argument& e) {
-    GTEST_SKIP() << "Method::exact rejected: " << e.what();
-  }
+  // the initial kinetic + elastic energy at omega_max h = 0.3, with no trend.
   const PackingRun r = run_packing(Method::exact, 0.3, 20'000);
   record(r);
   EXPECT_LE(r.max_error, 1e-3);
