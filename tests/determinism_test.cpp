@@ -46,9 +46,14 @@ struct RunResult {
   int arena_concurrency;
 };
 
-RunResult run(int threads) {
+RunResult run(int threads, Method method = Method::verlet) {
   WorldConfig config = test::falling_box_scene(8, 8, 8, 7);
   config.threads = threads;
+  if (method == Method::exact) {  // the exact stepper handles frictionless contacts so far
+    config.integrator.method = Method::exact;
+    config.contacts[0].sliding_friction = 0;
+    config.contacts[0].rolling_friction = 0;
+  }
   World world(config);
   ThreadRecorder recorder(world.arena());
   constexpr int steps = 600;
@@ -80,6 +85,14 @@ TEST(Determinism, SameHashForOneTwoThreeAndEightThreadsAndRepeatedRuns) {
     }
   }
   EXPECT_EQ(run(2).hash, run(2).hash);
+}
+
+TEST(Determinism, ExactStepperSameHashForOneTwoThreeAndEightThreads) {
+  tbb::global_control allow_eight(tbb::global_control::max_allowed_parallelism, 8);
+  const RunResult one = run(1, Method::exact);
+  EXPECT_GT(one.created, 0u);
+  EXPECT_GT(one.removed, 0u);
+  for (int threads : {2, 3, 8}) EXPECT_EQ(run(threads, Method::exact).hash, one.hash) << threads << " threads";
 }
 
 }  // namespace
