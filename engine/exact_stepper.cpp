@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "engine/contact_law.h"
 #include "engine/parallel.h"
@@ -39,7 +40,7 @@ void pair_flow(State& s, ExactInteraction& k, const ExactSettings& set, Real tau
   const Real reach = s.radius[i] + s.radius[j];
   const NormalState before{reach - d, -u.dot(n)};
   int events = 0;
-  const NormalState after = advance_normal(k.oscillator, set.separation, a, before, tau, &events);
+  const NormalState after = advance_normal(k.oscillator, set.separation, a, before, tau, &events, k.half_step);
   Vec3 r_new, u_new;
   if (events == 0 && !pushes(k.oscillator, set.separation, before)) {
     // No force during the flow: plain free flight, exact.
@@ -90,7 +91,7 @@ void wall_flow(State& s, const Walls& walls, ExactInteraction& k, const ExactSet
   const Vec3 u = s.velocity[p] - v_wall;
   const NormalState start{before.delta, -u.dot(n)};
   const Real a = -g.dot(n);
-  const NormalState after = advance_normal(k.oscillator, set.separation, a, start, tau);
+  const NormalState after = advance_normal(k.oscillator, set.separation, a, start, tau, nullptr, k.half_step);
   k.dissipated += normal_energy(k, set.separation, a, start) - normal_energy(k, set.separation, a, after);
   const Vec3 u_t = u + start.rate * n;
   const Vec3 g_t = g - g.dot(n) * n;
@@ -162,7 +163,7 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
       const EffectiveMasses m =
           effective_masses(s.inv_mass[a], s.inv_inertia[a], s.radius[a], s.inv_mass[b], s.inv_inertia[b], s.radius[b]);
       const LawConstants c = materials.constants(materials.pair_class(s.material[a], s.material[b]), m);
-      work.interactions[slot++] = {a, b, ExactInteraction::no_wall, 0, oscillator_of(c, m.m_star), c.k_n, m.m_star, 0};
+      work.interactions[slot++] = {a, b, ExactInteraction::no_wall, 0, oscillator_of(c, m.m_star), c.k_n, m.m_star, 0, nullptr};
     }
     for (std::size_t w = 0; w < walls.count(); ++w)
       for (std::uint32_t f = 0; f < walls.feature_count(w); ++f) {
@@ -171,7 +172,7 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
                                                    std::numeric_limits<Real>::infinity());
         const LawConstants c = materials.constants(materials.pair_class(s.material[a], walls.material(w)), m);
         work.interactions[slot++] = {a, a, static_cast<std::uint32_t>(w), f, oscillator_of(c, m.m_star), c.k_n,
-                                     m.m_star, 0};
+                                     m.m_star, 0, nullptr};
       }
   });
 }
@@ -217,6 +218,28 @@ void find_missed(const State& s, const Walls& walls, const broadphase::Candidate
 
 Real compose(State& s, const Walls& walls, const ExactSettings& set, Real h, ExactWorkspace& work);
 
+std::uint64_t bits_of(Real x) {
+  std::uint64_t b;
+  std::memcpy(&b, &x, sizeof b);
+  return b;
+}
+
+/// Points every interaction at the table's coefficients for its oscillator over tau (serial: the
+/// table inserts; the flows then only read).
+void attach_coefficients(ExactWorkspace& work, Real tau) {
+  if (work.table_step != tau || work.class_of.size() > ExactWorkspace::table_capacity) {
+    work.class_of.clear();
+    work.table.clear();
+    work.table_step = tau;
+  }
+  for (ExactInteraction& k : work.interactions) {
+    const auto key = std::make_pair(bits_of(k.oscillator.omega0), bits_of(k.oscillator.beta));
+    const auto [it, inserted] = work.class_of.try_emplace(key, static_cast<std::uint32_t>(work.class_of.size()));
+    (void)inserted;
+    k.half_step = &work.table.get(it->second, 0, k.oscillator.omega0, k.oscillator.beta, tau);
+  }
+}
+
 }  // namespace
 
 Real exact_step(State& s, const Walls& walls, const MaterialTable& materials,
@@ -229,6 +252,7 @@ Real exact_step(State& s, const Walls& walls, const MaterialTable& materials,
   work.forced.clear();
   for (int attempt = 0;; ++attempt) {
     collect_interactions(s, walls, materials, candidates, set, h, work);
+    if (set.use_table) attach_coefficients(work, 0.5 * h);
     const Real dissipated = compose(s, walls, set, h, work);
     std::vector<std::uint64_t> missed;
     if (attempt < 8) find_missed(s, walls, candidates, work.interactions, missed);

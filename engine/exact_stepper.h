@@ -17,12 +17,14 @@
 // Threading: interactions of one colour run in parallel, each writing only its two particles and
 // its own slot; colours, pairs and sums are in fixed orders, so results do not depend on threads.
 #include <cstdint>
+#include <map>
 #include <vector>
 
 #include "broadphase/candidate_pairs.h"
 #include "engine/coloring.h"
 #include "engine/materials.h"
 #include "engine/normal_flow.h"
+#include "engine/propagator.h"
 #include "engine/state.h"
 #include "engine/walls.h"
 
@@ -38,6 +40,7 @@ struct ExactInteraction {
   Real stiffness;           // k [N/m], for the elastic energy
   Real effective_mass;      // m* [kg]
   Real dissipated;          // energy lost in this step [J]
+  const PropagatorCoefficients* half_step;  // table entry for h/2, or nullptr
 
   static constexpr std::uint32_t no_wall = 0xffffffffu;
 };
@@ -50,12 +53,20 @@ struct ExactWorkspace {
   std::vector<std::uint64_t> forced;             // interactions a retry must include (sorted keys)
   std::vector<Vec3> saved_position, saved_velocity;  // the state a retry restarts from
   std::uint64_t retries = 0;                       // steps redone because a contact was missed
+  // Coefficient table (PHYSICS.md 3.2): one class per distinct (omega0, beta), built on demand for
+  // the step h/2 in use; cleared when the step changes or the classes pass table_capacity (a wide
+  // size distribution makes nearly every pair a class of its own).
+  std::map<std::pair<std::uint64_t, std::uint64_t>, std::uint32_t> class_of;
+  PropagatorTable table;
+  Real table_step = 0;
+  static constexpr std::size_t table_capacity = 1 << 16;
 };
 
 struct ExactSettings {
   Separation separation;
   Vec3 gravity;
   int dimension;
+  bool use_table = true;  // false: coefficients computed inline at every flow (for benchmarks)
 };
 
 /// A pair joins a step's interactions when its gap is within this many times the free relative

@@ -38,9 +38,12 @@ NormalState free_flight(NormalState s, Real a, Real t) {
   return {s.delta + s.rate * t + 0.5 * a * t * t, s.rate + a * t};
 }
 
-NormalState oscillate(const NormalOscillator& o, NormalState s, Real a, Real t) {
-  const PropagatorCoefficients p = propagator(o.omega0, o.beta, t);
+NormalState apply(const PropagatorCoefficients& p, NormalState s, Real a) {
   return {p.phi11 * s.delta + p.phi12 * s.rate + p.gamma1 * a, p.phi21 * s.delta + p.phi22 * s.rate + p.gamma2 * a};
+}
+
+NormalState oscillate(const NormalOscillator& o, NormalState s, Real a, Real t) {
+  return apply(propagator(o.omega0, o.beta, t), s, a);
 }
 
 struct Onset {
@@ -69,8 +72,12 @@ bool pushes(const NormalOscillator& o, Separation separation, const NormalState&
 }
 
 NormalState advance_normal(const NormalOscillator& o, Separation separation, Real a, NormalState s, Real tau,
-                           int* events) {
+                           int* events, const PropagatorCoefficients* whole_step) {
   bool in_contact = pushes(o, separation, s);
+  if (whole_step && in_contact && tau * o.omega0 <= 0.5 * pi) {
+    const NormalState end = apply(*whole_step, s, a);
+    if (pushes(o, separation, end)) return end;
+  }
   Real left = tau;
   // Each pass ends at an event or at the end of the step; a contact can only bounce so often within
   // one step, but a cap guards against chattering at round-off.

@@ -5,6 +5,7 @@
 // and at release (force zero, or overlap zero under the overlap convention), each found as a root of
 // the closed form, so an isolated contact is exact at any step, even one longer than the contact.
 #include "engine/config.h"
+#include "engine/propagator.h"
 
 namespace dem {
 
@@ -23,8 +24,12 @@ struct NormalOscillator {
 bool pushes(const NormalOscillator& o, Separation separation, const NormalState& s);
 
 /// Advances s over tau [s] under constant relative forcing a [m/s^2] (a = -(a_i - a_j) . n).
-/// `events` (optional) receives the number of onsets and releases crossed.
+/// `events` (optional) receives the number of onsets and releases crossed. `whole_step` (optional):
+/// precomputed propagator coefficients for exactly tau (PHYSICS.md 3.2), used when the contact
+/// pushes at both ends of a step no longer than a quarter period; the release search is then skipped
+/// [E]: a release and re-contact inside such a step (a graze of the force through zero) is not
+/// resolved.
 NormalState advance_normal(const NormalOscillator& o, Separation separation, Real a, NormalState s, Real tau,
-                           int* events = nullptr);
+                           int* events = nullptr, const PropagatorCoefficients* whole_step = nullptr);
 
 }  // namespace dem
