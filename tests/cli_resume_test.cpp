@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <csignal>
+#include <cstdio>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -56,6 +58,47 @@ TEST(CliResume, ResumedRunEqualsStraightRunBitForBit) {
                 " --set contacts[0].normal_stiffness=2e5"),
             2);
   EXPECT_EQ(read(base / "split" / "series.csv"), series_before);
+  fs::remove_all(base);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(CliResume, RunKilledMidwayResumesFromItsLastCheckpointToTheSameHash) {
+  const fs::path base = fs::temp_directory_path() / ("dem_kill_" + std::to_string(::getpid()));
+  fs::remove_all(base);
+  ASSERT_EQ(run("--until 0.35 --out " + (base / "straight").string()), 0);
+  // Start a run with periodic checkpoints and kill it (SIGKILL) once one exists and before the end.
+  const fs::path killed = base / "killed";
+  fs::create_directories(killed);
+  const std::string command = std::string(DEM_PROGRAM) + " run " + DEM_SOURCE_DIR +
+                              "/tests/scenes/settle_small.toml --quiet --until 0.35 --checkpoint-every 0.02 --out " +
+                              killed.string() + " 2>/dev/null & echo $!";
+  FILE* pipe = ::popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  int pid = 0;
+  ASSERT_EQ(std::fscanf(pipe, "%d", &pid), 1);
+  ::pclose(pipe);
+  fs::path checkpoint;
+  for (int wait = 0; wait < 2000 && checkpoint.empty(); ++wait) {
+    for (const auto& e : fs::directory_iterator(killed))
+      if (e.path().extension() == ".bin") checkpoint = e.path();
+    if (checkpoint.empty()) ::usleep(1000);
+  }
+  ::kill(pid, SIGKILL);
+  ::waitpid(pid, nullptr, 0);
+  ASSERT_FALSE(checkpoint.empty()) << "no checkpoint appeared";
+  ASSERT_FALSE(fs::exists(killed / "summary.json")) << "the run finished before it could be killed";
+  // The newest complete checkpoint (a file being written has a temporary name).
+  for (const auto& e : fs::directory_iterator(killed))
+    if (e.path().extension() == ".bin") checkpoint = e.path();
+  // Every output file is whole: the series parses to the end of its last line.
+  const std::string series = read(killed / "series.csv");
+  ASSERT_FALSE(series.empty());
+  ASSERT_EQ(run("--until 0.35 --out " + killed.string() + " --resume " + checkpoint.string()), 0);
+  EXPECT_EQ(hash_of(killed / "summary.json"), hash_of(base / "straight" / "summary.json"));
+  EXPECT_EQ(read(killed / "series.csv"), read(base / "straight" / "series.csv"));
   fs::remove_all(base);
 }
 

@@ -26,6 +26,9 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--quiet", run.quiet, "no progress bar or final line");
   run_cmd->add_option("--resume", run.resume, "continue bit for bit from a checkpoint of this scene")
       ->check(CLI::ExistingFile);
+  run_cmd->add_option("--checkpoint-every", run.checkpoint_every,
+                      "write checkpoint_<time>.bin every T seconds of simulated time (the newest is kept)")
+      ->check(CLI::PositiveNumber);
 
   std::string check_scene;
   std::vector<std::string> check_overrides;

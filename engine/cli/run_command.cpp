@@ -233,6 +233,16 @@ int run_command(const RunOptions& options) {
   };
   if (!resuming) write_outputs(false);
 
+  // Periodic checkpoints (--checkpoint-every): the newest replaces the previous one once written.
+  OutputSchedule checkpoints(options.checkpoint_every > 0 ? options.checkpoint_every : 0);
+  if (checkpoints.enabled()) checkpoints.done_at(world.time());
+  std::filesystem::path last_checkpoint;
+  auto checkpoint_name = [&](Real t) {
+    char name[64];
+    std::snprintf(name, sizeof name, "checkpoint_%.9g.bin", t);
+    return out / name;
+  };
+
   ProgressBar progress(!options.quiet && isatty(STDERR_FILENO), world.time(), scene.run.until);
   StepStatus status = StepStatus::ok;
   std::string stop_reason = "end time reached";
@@ -241,6 +251,13 @@ int run_command(const RunOptions& options) {
     status = world.advance_sync_interval();
     if (status != StepStatus::ok) break;
     if (write_outputs(false)) last_written = world.time();
+    if (checkpoints.due(world.time())) {
+      const std::filesystem::path path = checkpoint_name(world.time());
+      world.save_checkpoint(path.string(), scene.physics_hash);
+      if (!last_checkpoint.empty() && last_checkpoint != path) std::filesystem::remove(last_checkpoint);
+      last_checkpoint = path;
+      checkpoints.done_at(world.time());
+    }
     if (scene.run.stop_kinetic_energy > 0 && world.time() >= scene.run.stop_check_after) {
       const Energies e = world.energies();
       // Translational only: a particle spinning about its contact normal (nothing resists that spin)
@@ -313,9 +330,9 @@ int run_command(const RunOptions& options) {
       .add("provenance", provenance);
   write_file_atomically(out / "summary.json", summary.dump(2) + "\n");
   if (status == StepStatus::ok) {
-    char name[64];
-    std::snprintf(name, sizeof name, "checkpoint_%.9g.bin", world.time());
-    world.save_checkpoint((out / name).string(), scene.physics_hash);
+    const std::filesystem::path path = checkpoint_name(world.time());
+    world.save_checkpoint(path.string(), scene.physics_hash);
+    if (!last_checkpoint.empty() && last_checkpoint != path) std::filesystem::remove(last_checkpoint);
   }
 
   if (status != StepStatus::ok) {
