@@ -40,7 +40,9 @@ void WallContacts::resize(std::size_t n) {
 
 namespace {
 
+/// Two immovable particles (inverse mass 0 both) have no finite effective mass: never a contact.
 bool overlapping(const State& s, ParticleIndex a, ParticleIndex b) {
+  if (s.inv_mass[a] == 0 && s.inv_mass[b] == 0) return false;
   const Real reach = s.radius[a] + s.radius[b];
   return (s.position[a] - s.position[b]).squaredNorm() < reach * reach;
 }
@@ -117,7 +119,7 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
     WallTouch touch;
     for (std::size_t w = 0; w < walls.count(); ++w)
       for (std::uint32_t f = 0; f < walls.feature_count(w); ++f)
-        c += walls.touch(w, f, s.position[p], s.radius[p], touch) ? 1 : 0;
+        c += s.inv_mass[p] > 0 && walls.touch(w, f, s.position[p], s.radius[p], touch) ? 1 : 0;
     work.count[p] = c;
   });
   exclusive_scan(work.count, wall_start);
@@ -128,7 +130,7 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
     WallTouch touch;
     for (std::size_t w = 0; w < walls.count(); ++w)
       for (std::uint32_t f = 0; f < walls.feature_count(w); ++f) {
-        if (!walls.touch(w, f, s.position[p], s.radius[p], touch)) continue;
+        if (!(s.inv_mass[p] > 0 && walls.touch(w, f, s.position[p], s.radius[p], touch))) continue;
         fresh.key[slot] = wall_key(s.id[p], static_cast<std::uint32_t>(w), f);
         fresh.particle[slot] = static_cast<ParticleIndex>(p);
         fresh.wall[slot] = static_cast<std::uint32_t>(w);

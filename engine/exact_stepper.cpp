@@ -216,7 +216,7 @@ void find_missed(const State& s, const Walls& walls, const broadphase::Candidate
   }
 }
 
-Real compose(State& s, const Walls& walls, const ExactSettings& set, Real h, ExactWorkspace& work);
+Real compose(State& s, Walls& walls, const ExactSettings& set, Real t, Real h, ExactWorkspace& work);
 
 std::uint64_t bits_of(Real x) {
   std::uint64_t b;
@@ -242,8 +242,9 @@ void attach_coefficients(ExactWorkspace& work, Real tau) {
 
 }  // namespace
 
-Real exact_step(State& s, const Walls& walls, const MaterialTable& materials,
-                const broadphase::CandidatePairs& candidates, const ExactSettings& set, Real h, ExactWorkspace& work) {
+Real exact_step(State& s, Walls& walls, const MaterialTable& materials,
+                const broadphase::CandidatePairs& candidates, const ExactSettings& set, Real t, Real h,
+                ExactWorkspace& work) {
   // A contact that the anticipation missed (another contact changed a velocity within the step)
   // would start the next step overlapped, with energy from nothing: redo the step from the saved
   // state with the missed contacts included, until none is missed.
@@ -251,9 +252,11 @@ Real exact_step(State& s, const Walls& walls, const MaterialTable& materials,
   work.saved_velocity = s.velocity;
   work.forced.clear();
   for (int attempt = 0;; ++attempt) {
+    walls.set_time(t);
     collect_interactions(s, walls, materials, candidates, set, h, work);
     if (set.use_table) attach_coefficients(work, 0.5 * h);
-    const Real dissipated = compose(s, walls, set, h, work);
+    const Real dissipated = compose(s, walls, set, t, h, work);
+    walls.set_time(t + h);
     std::vector<std::uint64_t> missed;
     if (attempt < 8) find_missed(s, walls, candidates, work.interactions, missed);
     if (missed.empty()) return dissipated;
@@ -267,7 +270,7 @@ Real exact_step(State& s, const Walls& walls, const MaterialTable& materials,
 
 namespace {
 
-Real compose(State& s, const Walls& walls, const ExactSettings& set, Real h, ExactWorkspace& work) {
+Real compose(State& s, Walls& walls, const ExactSettings& set, Real t, Real h, ExactWorkspace& work) {
   // Colour the interaction graph; a wall contact is an edge to a node of its own.
   const std::size_t n = s.size(), m = work.interactions.size();
   work.edge_i.resize(m);
@@ -292,8 +295,11 @@ Real compose(State& s, const Walls& walls, const ExactSettings& set, Real h, Exa
       }
     });
   };
+  // Each sweep's wall flows cover half a step from its start: walls at their pose at t, then t + h/2.
+  walls.set_time(t);
   for (std::size_t c = 0; c < col.color_count(); ++c) colour(c, false);
   parallel_for(n, [&](std::size_t p) { free_flight(s, static_cast<ParticleIndex>(p), set.gravity, h); });
+  walls.set_time(t + half);
   for (std::size_t c = col.color_count(); c-- > 0;) colour(c, true);
   if (set.dimension == 2)
     parallel_for(n, [&](std::size_t p) {

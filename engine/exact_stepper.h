@@ -78,10 +78,11 @@ inline constexpr Real anticipation_factor = 3;
 /// Largest distance any particle can move in a free step of h [m]: |v| h + |g| h^2 / 2.
 Real max_free_displacement(const State& state, const Vec3& gravity, Real h);
 
-/// Advances every particle by h with scheme (D). `candidates` must hold every pair that can touch
-/// within the step. Returns the energy the contacts dissipated [J].
-Real exact_step(State& state, const Walls& walls, const MaterialTable& materials,
-                const broadphase::CandidatePairs& candidates, const ExactSettings& settings, Real h,
+/// Advances every particle from t to t + h [s] with scheme (D); the walls are moved to the start of
+/// each half sweep and left at t + h. `candidates` must hold every pair that can touch within the
+/// step. Returns the energy the contacts dissipated [J].
+Real exact_step(State& state, Walls& walls, const MaterialTable& materials,
+                const broadphase::CandidatePairs& candidates, const ExactSettings& settings, Real t, Real h,
                 ExactWorkspace& work);
 
 }  // namespace dem

@@ -50,9 +50,15 @@ void wall_forces(const State& s, const Walls& walls, WallContacts& c, Real h) {
     const ParticleIndex p = c.particle[k];
     const std::uint32_t w = c.wall[k];
     WallTouch touch;
+    // Contacts are rebuilt at these very positions, so touch() holds; should it not, no force.
     if (!walls.touch(w, c.feature[k], s.position[p], s.radius[p], touch)) {
-      // Contacts are rebuilt at these very positions, so this only guards round-off at the edge.
-      touch.overlap = 0;
+      c.overlap[k] = 0;
+      c.elastic[k] = 0;
+      c.point[k] = s.position[p];
+      c.force[k].setZero();
+      c.torque[k].setZero();
+      c.rolling_torque[k].setZero();
+      return;
     }
     const Vec3& n = touch.normal;
     const Real arm = s.radius[p] - 0.5 * touch.overlap;

@@ -1,6 +1,7 @@
 #include "engine/particle_csv.h"
 
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -63,6 +64,8 @@ std::vector<ParticleConfig> read_particle_csv(const std::string& path, const std
       const auto [end, err] = std::from_chars(text.data(), text.data() + text.size(), v);
       if (err != std::errc() || end != text.data() + text.size() || text.empty())
         throw InputError(path, line_number, it->second + 1, name, "'" + text + "' is not a number");
+      if (!std::isfinite(v))
+        throw InputError(path, line_number, it->second + 1, name, "'" + text + "' is not a finite number");
       return v;
     };
     ParticleConfig p;
@@ -75,6 +78,9 @@ std::vector<ParticleConfig> read_particle_csv(const std::string& path, const std
     p.mass = value("mass", 0);
     if (!(p.radius > 0))
       throw InputError(path, line_number, column["radius"] + 1, "radius", "must be a positive length in metres");
+    for (const char* name : {"density", "mass"})
+      if (column.count(name) && !(value(name, 0) > 0))
+        throw InputError(path, line_number, column[name] + 1, name, "must be > 0 when given");
     particles.push_back(p);
   }
   return particles;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <fstream>
 #include <optional>
 #include <set>
@@ -118,8 +119,21 @@ class TableReader {
     used_.insert(key);
     const toml::node* node = table_.get(key);
     if (!node) return fallback;
-    if (auto v = node->value_exact<int64_t>()) return static_cast<int>(*v);
+    if (auto v = node->value_exact<int64_t>()) {
+      if (*v < std::numeric_limits<int>::min() || *v > std::numeric_limits<int>::max())
+        fail(key, "integer out of range (at most " + std::to_string(std::numeric_limits<int>::max()) + ")");
+      return static_cast<int>(*v);
+    }
     fail(key, "expected an integer");
+  }
+
+  /// A non-negative 64-bit integer (seeds).
+  std::uint64_t unsigned_integer(const std::string& key, std::uint64_t fallback) {
+    used_.insert(key);
+    const toml::node* node = table_.get(key);
+    if (!node) return fallback;
+    if (auto v = node->value_exact<int64_t>(); v && *v >= 0) return static_cast<std::uint64_t>(*v);
+    fail(key, "expected a non-negative integer");
   }
 
   bool boolean(const std::string& key, bool fallback) {
@@ -439,7 +453,7 @@ void read_particles(TableReader& top, Scene& scene, const std::string& base_dir)
     GeneratorConfig g;
     g.count = r.integer("count", 0);
     if (g.count <= 0) r.fail("count", "must be a positive number of particles");
-    g.seed = static_cast<std::uint64_t>(r.integer("seed", 1));
+    g.seed = r.unsigned_integer("seed", 1);
     g.material = read_material_name(r, scene, "material");
     g.velocity = r.vec3("velocity", Vec3::Zero());
     g.max_attempts = r.integer("max_attempts", 1000);

@@ -30,6 +30,16 @@ World::World(const WorldConfig& config)
     throw std::invalid_argument("model.dimension must be 2 or 3");
   if (config_.integrator.control != Control::fixed)
     throw std::invalid_argument("only control fixed is implemented so far");
+  // Embedding programs bypass the scene loader's checks: the ones a run cannot survive are here too.
+  if (!(config_.integrator.dt > 0) || !std::isfinite(config_.integrator.dt))
+    throw std::invalid_argument("integrator.dt must be a finite time step > 0 [s]");
+  for (const ContactConfig& c : config_.contacts)
+    if (!(c.normal_stiffness > 0) || c.tangential_stiffness == 0)
+      throw std::invalid_argument("contact stiffnesses must be > 0 [N/m]");
+  for (const ParticleConfig& p : config_.particles)
+    if (!(p.radius > 0) || !std::isfinite(p.radius) || !p.position.allFinite() || !p.velocity.allFinite() ||
+        !p.angular_velocity.allFinite())
+      throw std::invalid_argument("every particle needs a finite radius > 0 and finite position and velocities");
   threads_ = config_.threads > 0 ? config_.threads : tbb::info::default_concurrency();
   arena_ = std::make_unique<tbb::task_arena>(threads_);
   gravity_ = config_.model.gravity;
@@ -85,7 +95,6 @@ void World::evaluate_forces(Real h, bool force_rebuild) {
   kernels_.pair_forces(state_, pairs_, h);
   kernels_.wall_forces(state_, walls_, wall_contacts_, h);
   gather_forces(state_, pairs_, wall_contacts_, adjacency_, kernels_.uses_rotation, config_.model.dimension);
-  counters_.force_evaluations += n;
 }
 
 void World::rebuild_candidates() {
@@ -107,7 +116,13 @@ void World::step_exact(Real h) {
     rebuild_candidates();
   }
   const ExactSettings settings{config_.model.separation, gravity_, config_.model.dimension};
-  exact_dissipated_ += exact_step(state_, walls_, materials_, candidates_, settings, h, exact_work_);
+  const std::uint64_t retries = exact_work_.retries;
+  exact_dissipated_ += exact_step(state_, walls_, materials_, candidates_, settings, time(), h, exact_work_);
+  // A step redone because it missed a contact costs a full trial: count it (DESIGN.md, counters).
+  const std::uint64_t redone = (exact_work_.retries - retries) * state_.size();
+  counters_.particle_steps += redone;
+  counters_.rejected_steps += redone;
+  counters_.force_evaluations += redone + state_.size();
 }
 
 StepStatus World::advance_sync_interval() {
@@ -123,13 +138,14 @@ StepStatus World::advance_sync_interval() {
       step_exact(h);
       ++clock_.interval;
       walls_.set_time(time());
-      evaluate_forces(0, false);
+      evaluate_forces(0, false);  // for outputs: contact list, springs, wall loads
     } else {
       kick(state_, 0.5 * h, gravity_, rotation, dim);
       drift(state_, h);
       ++clock_.interval;
       walls_.set_time(time());
       evaluate_forces(h, false);
+      counters_.force_evaluations += state_.size();
       kick(state_, 0.5 * h, gravity_, rotation, dim);
     }
     finite = state_is_finite();

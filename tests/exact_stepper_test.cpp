@@ -127,6 +127,29 @@ TEST(ExactStepper, UndampedBounceConservesEnergyToRoundOffAtAnyStep) {
   }
 }
 
+TEST(ExactStepper, BallHitByAMovingWallIsExactAtAnyStep) {
+  // A floor rising at 1 m/s hits a ball at rest (undamped, no gravity): in the wall's frame the
+  // ball comes in at 1 m/s and leaves at 1 m/s, so it flies off at 2 m/s, leaving the wall at
+  // t_on + t_c with t_c = pi sqrt(m/k) (wall: m* = m).
+  const Real m = 0.01, k = 1e5, r = 0.01, gap = 0.01, t_c = M_PI * std::sqrt(m / k);
+  for (Real dt : {1e-5, 1e-4, 1e-3, 4e-3}) {
+    SCOPED_TRACE(dt);
+    WorldConfig c = exact_config(dt);
+    c.contacts[0].normal_stiffness = k;
+    WallConfig floor;
+    floor.kind = WallKind::plane;
+    floor.velocity = Vec3(0, 0, 1);
+    c.walls = {floor};
+    c.particles = {ball(Vec3(0, 0, r + gap), Vec3::Zero(), r, m)};
+    World w(c);
+    advance(w, static_cast<long>(std::ceil(0.05 / dt)));
+    const Real release = gap + t_c;  // the wall moves at 1 m/s: it meets the ball at t = gap
+    const Real z = release + r + 2 * (w.time() - release);
+    EXPECT_NEAR(w.state().velocity[0].z(), 2.0, 1e-9);
+    EXPECT_NEAR(w.state().position[0].z(), z, 1e-9);
+  }
+}
+
 TEST(ExactStepper, PackingConservesMomentumAndIsThreadIndependent) {
   WorldConfig c = test::falling_box_scene(5, 5, 5, 9);
   c.integrator.method = Method::exact;
