@@ -8,8 +8,11 @@ namespace dem {
 void color_contacts(std::size_t n, const std::vector<ParticleIndex>& i, const std::vector<ParticleIndex>& j,
                     ContactColoring& coloring) {
   const std::size_t m = i.size();
-  std::vector<std::uint64_t> low_mask(n, 0);            // colours 0..63 used at each particle
-  std::vector<std::vector<std::uint32_t>> high_used(n);  // colours >= 64 (rare: very high degree)
+  auto& low_mask = coloring.low_mask;
+  auto& high_used = coloring.high_used;
+  low_mask.assign(n, 0);
+  if (high_used.size() < n) high_used.resize(n);
+  for (std::size_t p = 0; p < n; ++p) high_used[p].clear();
   coloring.color_of.resize(m);
   std::uint32_t colors = 0;
   for (std::size_t k = 0; k < m; ++k) {
@@ -37,7 +40,8 @@ void color_contacts(std::size_t n, const std::vector<ParticleIndex>& i, const st
   for (std::uint32_t c : coloring.color_of) ++coloring.start[c + 1];
   for (std::uint32_t c = 0; c < colors; ++c) coloring.start[c + 1] += coloring.start[c];
   coloring.contact.resize(m);
-  std::vector<std::uint32_t> cursor(coloring.start.begin(), coloring.start.end() - 1);
+  auto& cursor = coloring.cursor;
+  cursor.assign(coloring.start.begin(), coloring.start.end() - 1);
   for (std::size_t k = 0; k < m; ++k) coloring.contact[cursor[coloring.color_of[k]]++] = static_cast<std::uint32_t>(k);
 }
 

@@ -15,6 +15,10 @@ struct ContactColoring {
   std::vector<std::uint32_t> color_of;  // per contact
   std::vector<std::uint32_t> start;     // size color_count + 1
   std::vector<std::uint32_t> contact;   // contacts of colour c: contact[start[c] .. start[c+1]), ascending
+  // Scratch kept between calls (no allocation once warm): colours used at each particle.
+  std::vector<std::uint64_t> low_mask;              // colours 0..63
+  std::vector<std::vector<std::uint32_t>> high_used;  // colours >= 64 (rare: very high degree)
+  std::vector<std::uint32_t> cursor;
 
   std::size_t color_count() const { return start.empty() ? 0 : start.size() - 1; }
 };

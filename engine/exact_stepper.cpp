@@ -188,32 +188,40 @@ Real max_free_displacement(const State& s, const Vec3& gravity, Real h) {
 
 namespace {
 
+std::uint64_t key_of(const ExactInteraction& k) {
+  return interaction_key(k.i, k.wall == ExactInteraction::no_wall ? std::uint64_t{k.j} : wall_partner(k.wall, k.feature));
+}
+
 /// Contacts touching at the end of a step that were not among its interactions (so no force acted
-/// on them), appended to `missed` as sorted interaction keys.
+/// on them), appended to `missed` as sorted interaction keys. The interactions of row a lie in
+/// [offset[a], offset[a+1]) in ascending key order (pairs by partner, then walls), so each row is
+/// checked on its own, in parallel; the rare list of misses is then built serially.
 void find_missed(const State& s, const Walls& walls, const broadphase::CandidatePairs& candidates,
-                 const std::vector<ExactInteraction>& interactions, std::vector<std::uint64_t>& missed) {
-  std::vector<std::uint64_t> included;
-  included.reserve(interactions.size());
-  for (const ExactInteraction& k : interactions)
-    included.push_back(interaction_key(k.i, k.wall == ExactInteraction::no_wall ? std::uint64_t{k.j}
-                                                                                  : wall_partner(k.wall, k.feature)));
-  std::sort(included.begin(), included.end());
-  auto add_if_missed = [&](std::uint64_t key) {
-    if (!std::binary_search(included.begin(), included.end(), key)) missed.push_back(key);
-  };
-  for (std::size_t a = 0; a < s.size(); ++a) {
+                 const ExactWorkspace& work, std::vector<std::uint64_t>& missed) {
+  auto missed_in_row = [&](std::size_t a, std::vector<std::uint64_t>* out) {
+    const auto first = work.interactions.begin() + work.offset[a], last = work.interactions.begin() + work.offset[a + 1];
+    bool any = false;
+    auto check = [&](std::uint64_t key) {
+      const auto it = std::lower_bound(first, last, key, [](const ExactInteraction& k, std::uint64_t x) { return key_of(k) < x; });
+      if (it != last && key_of(*it) == key) return;
+      any = true;
+      if (out) out->push_back(key);
+    };
     for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
       const ParticleIndex b = candidates.partner[k];
       const Real reach = s.radius[a] + s.radius[b];
       if ((s.inv_mass[a] > 0 || s.inv_mass[b] > 0) && (s.position[a] - s.position[b]).squaredNorm() < reach * reach)
-        add_if_missed(interaction_key(static_cast<ParticleIndex>(a), b));
+        check(interaction_key(static_cast<ParticleIndex>(a), b));
     }
     WallTouch t;
     for (std::size_t w = 0; w < walls.count(); ++w)
       for (std::uint32_t f = 0; f < walls.feature_count(w); ++f)
         if (s.inv_mass[a] > 0 && walls.touch(w, f, s.position[a], s.radius[a], t))
-          add_if_missed(interaction_key(static_cast<ParticleIndex>(a), wall_partner(w, f)));
-  }
+          check(interaction_key(static_cast<ParticleIndex>(a), wall_partner(w, f)));
+    return any;
+  };
+  if (!parallel_any(s.size(), [&](std::size_t a) { return missed_in_row(a, nullptr); })) return;
+  for (std::size_t a = 0; a < s.size(); ++a) missed_in_row(a, &missed);
 }
 
 Real compose(State& s, Walls& walls, const ExactSettings& set, Real t, Real h, ExactWorkspace& work);
@@ -258,7 +266,7 @@ Real exact_step(State& s, Walls& walls, const MaterialTable& materials,
     const Real dissipated = compose(s, walls, set, t, h, work);
     walls.set_time(t + h);
     std::vector<std::uint64_t> missed;
-    if (attempt < 8) find_missed(s, walls, candidates, work.interactions, missed);
+    if (attempt < 8) find_missed(s, walls, candidates, work, missed);
     if (missed.empty()) return dissipated;
     work.forced.insert(work.forced.end(), missed.begin(), missed.end());
     std::sort(work.forced.begin(), work.forced.end());
