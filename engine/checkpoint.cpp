@@ -227,6 +227,7 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   candidates_ = std::move(candidates);
   skin_tracker_.reset(reference);
   walls_.set_time(time());
+  pairs_.index_rows(state_.size());
   build_pair_adjacency(state_.size(), pairs_, adjacency_);
   adjacency_.wall_start.assign(state_.size() + 1, 0);
   for (std::size_t k = 0; k < wall_contacts_.size(); ++k) ++adjacency_.wall_start[wall_contacts_.particle[k] + 1];

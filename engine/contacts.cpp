@@ -22,6 +22,12 @@ void PairContacts::resize(std::size_t n) {
   torque_j.resize(n);
 }
 
+void PairContacts::index_rows(std::size_t particle_count) {
+  row_start.assign(particle_count + 1, 0);
+  for (std::size_t k = 0; k < size(); ++k) ++row_start[std::min(i[k], j[k]) + 1];
+  for (std::size_t a = 0; a < particle_count; ++a) row_start[a + 1] += row_start[a];
+}
+
 void WallContacts::resize(std::size_t n) {
   key.resize(n);
   particle.resize(n);
@@ -87,25 +93,40 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
     }
   });
   DEM_VALIDATE(std::is_sorted(fresh.key.begin(), fresh.key.end()));
-  parallel_for(fresh.size(), [&](std::size_t k) {
-    const std::ptrdiff_t old = find_key(contacts.key, fresh.key[k]);
-    if (old >= 0) {
-      fresh.constants[k] = contacts.constants[old];
-      fresh.history[k] = contacts.history[old];
-      fresh.work[k] = contacts.work[old];
-      fresh.elastic[k] = contacts.elastic[old];
-      return;
+  fresh.row_start = work.offset;
+  if (contacts.row_start.size() != n + 1) contacts.index_rows(n);
+  // Inherit history row by row: old and new contacts of a row are both ascending in key, so a
+  // linear merge pairs them up (streaming, no search); old ones left over have ended.
+  work.row_ended.resize(n);
+  parallel_for(n, [&](std::size_t a) {
+    std::uint32_t old = contacts.row_start[a];
+    const std::uint32_t old_end = contacts.row_start[a + 1];
+    Real ended = 0;
+    for (std::uint32_t k = fresh.row_start[a]; k < fresh.row_start[a + 1]; ++k) {
+      while (old < old_end && contacts.key[old] < fresh.key[k]) {
+        ended += contacts.work[old] - contacts.elastic[old];
+        ++old;
+      }
+      if (old < old_end && contacts.key[old] == fresh.key[k]) {
+        fresh.constants[k] = contacts.constants[old];
+        fresh.history[k] = contacts.history[old];
+        fresh.work[k] = contacts.work[old];
+        fresh.elastic[k] = contacts.elastic[old];
+        ++old;
+        continue;
+      }
+      const ParticleIndex i = fresh.i[k], j = fresh.j[k];
+      const EffectiveMasses m = effective_masses(s.inv_mass[i], s.inv_inertia[i], s.radius[i], s.inv_mass[j],
+                                                 s.inv_inertia[j], s.radius[j]);
+      fresh.constants[k] = materials.constants(materials.pair_class(s.material[i], s.material[j]), m);
+      fresh.history[k] = ContactHistory{};
+      fresh.work[k] = 0;
+      fresh.elastic[k] = 0;
     }
-    const ParticleIndex a = fresh.i[k], b = fresh.j[k];
-    const EffectiveMasses m = effective_masses(s.inv_mass[a], s.inv_inertia[a], s.radius[a], s.inv_mass[b],
-                                               s.inv_inertia[b], s.radius[b]);
-    fresh.constants[k] = materials.constants(materials.pair_class(s.material[a], s.material[b]), m);
-    fresh.history[k] = ContactHistory{};
-    fresh.work[k] = 0;
-    fresh.elastic[k] = 0;
+    for (; old < old_end; ++old) ended += contacts.work[old] - contacts.elastic[old];
+    work.row_ended[a] = ended;
   });
-  // What the ended contacts dissipated: all old contacts minus the ones carried over.
-  const Real ended = live_dissipation(contacts.work, contacts.elastic) - live_dissipation(fresh.work, fresh.elastic);
+  const Real ended = block_sum<Real>(n, [&](std::size_t a) { return work.row_ended[a]; });
   std::swap(contacts, fresh);
   return ended;
 }
@@ -116,10 +137,9 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
   work.count.resize(n);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t c = 0;
-    WallTouch touch;
-    for (std::size_t w = 0; w < walls.count(); ++w)
-      for (std::uint32_t f = 0; f < walls.feature_count(w); ++f)
-        c += s.inv_mass[p] > 0 && walls.touch(w, f, s.position[p], s.radius[p], touch) ? 1 : 0;
+    std::uint32_t features[6];
+    if (s.inv_mass[p] > 0)
+      for (std::size_t w = 0; w < walls.count(); ++w) c += walls.touching_features(w, s.position[p], s.radius[p], features);
     work.count[p] = c;
   });
   exclusive_scan(work.count, wall_start);
@@ -127,10 +147,11 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
   fresh.resize(wall_start[n]);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t slot = wall_start[p];
-    WallTouch touch;
-    for (std::size_t w = 0; w < walls.count(); ++w)
-      for (std::uint32_t f = 0; f < walls.feature_count(w); ++f) {
-        if (!(s.inv_mass[p] > 0 && walls.touch(w, f, s.position[p], s.radius[p], touch))) continue;
+    std::uint32_t features[6];
+    for (std::size_t w = 0; w < walls.count(); ++w) {
+      const std::uint32_t touched = s.inv_mass[p] > 0 ? walls.touching_features(w, s.position[p], s.radius[p], features) : 0;
+      for (std::uint32_t q = 0; q < touched; ++q) {
+        const std::uint32_t f = features[q];
         fresh.key[slot] = wall_key(s.id[p], static_cast<std::uint32_t>(w), f);
         fresh.particle[slot] = static_cast<ParticleIndex>(p);
         fresh.wall[slot] = static_cast<std::uint32_t>(w);
@@ -151,6 +172,7 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
         }
         ++slot;
       }
+    }
   });
   DEM_VALIDATE(std::is_sorted(fresh.key.begin(), fresh.key.end()));
   const Real ended = live_dissipation(contacts.work, contacts.elastic) - live_dissipation(fresh.work, fresh.elastic);

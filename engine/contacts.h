@@ -28,9 +28,14 @@ struct PairContacts {
   std::vector<Vec3> force;          // on i; j gets the negative [N]
   std::vector<Vec3> torque_i;       // [N m]
   std::vector<Vec3> torque_j;       // [N m]
+  // Contacts found from candidate row a (a = the smaller slot of the pair) are the slots
+  // row_start[a] .. row_start[a+1], ascending in key: history is inherited row by row.
+  std::vector<std::uint32_t> row_start;
 
   std::size_t size() const { return key.size(); }
   void resize(std::size_t n);
+  /// Recomputes row_start from i and j (after a checkpoint is loaded).
+  void index_rows(std::size_t particle_count);
 };
 
 struct WallContacts {
@@ -65,6 +70,7 @@ struct ContactAdjacency {
 struct ContactWorkspace {
   std::vector<std::uint32_t> count;
   std::vector<std::uint32_t> offset;
+  std::vector<Real> row_ended;  // per row: what its ended contacts dissipated [J]
   PairContacts pairs;
   WallContacts walls;
 };

@@ -91,6 +91,24 @@ bool Walls::touch(std::size_t w, std::uint32_t f, const Vec3& x, Real r, WallTou
   return false;
 }
 
+std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features) const {
+  const WallConfig& c = config_[w];
+  std::uint32_t count = 0;
+  if (c.kind == WallKind::box && c.inside) {
+    // Six faces from one transform; the same expressions as touch() so the answers agree exactly.
+    const Vec3 local = pose_[w].rotation.transpose() * (x - pose_[w].point);
+    for (std::uint32_t f = 0; f < 6; ++f) {
+      const int axis = static_cast<int>(f / 2);
+      const Real side = (f % 2 == 0) ? -1 : 1;
+      if (r - (c.half_extents[axis] - side * local[axis]) > 0) features[count++] = f;
+    }
+    return count;
+  }
+  WallTouch t;
+  if (touch(w, 0, x, r, t)) features[count++] = 0;
+  return count;
+}
+
 Vec3 Walls::velocity_at(std::size_t w, const Vec3& x) const {
   const WallConfig& c = config_[w];
   return c.velocity + c.angular_velocity.cross(x - pose_[w].center);

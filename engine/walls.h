@@ -41,6 +41,10 @@ class Walls {
 
   /// Contact of a sphere (centre x, radius r) with feature f of wall w; false if not touching.
   bool touch(std::size_t w, std::uint32_t f, const Vec3& x, Real r, WallTouch& out) const;
+  /// Features of wall w a sphere touches, written to features[] (room for feature_count(w));
+  /// returns how many. The same answers as touch() on each feature, with the geometry set up once.
+  std::uint32_t touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features) const;
+
   /// Velocity of the wall's material at point p [m/s].
   Vec3 velocity_at(std::size_t w, const Vec3& p) const;
   const Vec3& angular_velocity(std::size_t w) const { return config_[w].angular_velocity; }
