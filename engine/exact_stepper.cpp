@@ -25,8 +25,8 @@ Real normal_energy(const ExactInteraction& k, Separation sep, Real a, const Norm
   return 0.5 * k.effective_mass * n.rate * n.rate + spring - k.effective_mass * a * n.delta;
 }
 
-/// P_k(tau) for a particle pair: the centre of mass in free flight, the relative coordinate by the
-/// exact normal flow along the frozen normal plus free tangential drift.
+/// P_k(tau) for a particle pair: the centre of mass in free flight, the distance by the exact normal
+/// flow, the direction turned by the tangential drift.
 void pair_flow(State& s, ExactInteraction& k, const ExactSettings& set, Real tau) {
   const ParticleIndex i = k.i, j = k.j;
   const Real inv_i = s.inv_mass[i], inv_j = s.inv_mass[j];
@@ -86,10 +86,10 @@ void wall_flow(State& s, const Walls& walls, ExactInteraction& k, const ExactSet
     return;
   }
   const Vec3 n = t.normal;
-  const NormalState before{t.overlap - pad, 0};
-  const Vec3 v_wall = walls.velocity_at(k.wall, s.position[p] - (r - 0.5 * before.delta) * n);
+  const Real overlap = t.overlap - pad;
+  const Vec3 v_wall = walls.velocity_at(k.wall, s.position[p] - (r - 0.5 * overlap) * n);
   const Vec3 u = s.velocity[p] - v_wall;
-  const NormalState start{before.delta, -u.dot(n)};
+  const NormalState start{overlap, -u.dot(n)};
   const Real a = -g.dot(n);
   const NormalState after = advance_normal(k.oscillator, set.separation, a, start, tau, nullptr, k.half_step);
   k.dissipated += normal_energy(k, set.separation, a, start) - normal_energy(k, set.separation, a, after);

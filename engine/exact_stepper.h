@@ -11,9 +11,11 @@
 // An isolated pair or wall contact is exact at any h (the drifts cancel: P(h/2) P(h/2) = P(h)), and
 // so is free flight. Approximations, stated as PHYSICS.md 3.4 asks: several simultaneous contacts
 // are coupled only through the splitting (second order in the coupling, symplectic and
-// time-reversible when undamped); the contact normal is frozen at its direction when each pair flow
-// starts (oblique contacts err by ~h^2 |u_t| / distance); a wall's velocity and normal are frozen
-// over h/2. Friction and rolling resistance are not handled here yet (the World refuses them).
+// time-reversible when undamped); in a pair flow the distance follows the exact normal flow while
+// the tangential drift turns the normal, keeping the tangential speed (exact energy when undamped,
+// direction first order in |u_t| h / distance); a wall's velocity and normal are frozen over h/2; a
+// contact the step's anticipation missed makes it redo the step with that contact included.
+// Friction and rolling resistance are not handled here yet (the World refuses them).
 // Threading: interactions of one colour run in parallel, each writing only its two particles and
 // its own slot; colours, pairs and sums are in fixed orders, so results do not depend on threads.
 #include <cstdint>
