@@ -66,7 +66,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 2;
+constexpr std::uint32_t checkpoint_version = 3;
 
 class ByteWriter {
  public:
@@ -165,6 +165,9 @@ void World::save_checkpoint(const std::string& path, std::uint64_t scene_hash) c
   w.put(ended_dissipation_);
   w.put(exact_dissipated_);
   w.put(candidate_skin_);
+  w.put(wall_work_);
+  for (Real e : {start_energies_.kinetic, start_energies_.rotational, start_energies_.potential, start_energies_.elastic})
+    w.put(e);
   auto io = [&](auto& v) { w.put(v); };
   state_fields(io, state_);
   pair_fields(io, pairs_);
@@ -200,6 +203,9 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   const Real ended = r.get<Real>();
   const Real exact_dissipated = r.get<Real>();
   const Real candidate_skin = r.get<Real>();
+  const Real wall_work = r.get<Real>();
+  Energies start;
+  for (Real* e : {&start.kinetic, &start.rotational, &start.potential, &start.elastic}) *e = r.get<Real>();
   State state;
   PairContacts pairs;
   WallContacts walls;
@@ -221,6 +227,8 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   ended_dissipation_ = ended;
   exact_dissipated_ = exact_dissipated;
   candidate_skin_ = candidate_skin;
+  wall_work_ = wall_work;
+  start_energies_ = start;
   state_ = std::move(state);
   pairs_ = std::move(pairs);
   wall_contacts_ = std::move(walls);

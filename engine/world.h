@@ -40,6 +40,12 @@ struct Energies {
   Real total() const { return kinetic + rotational + potential + elastic; }
 };
 
+/// Energy audit since the start: what appeared from nowhere, against the energy in play.
+struct EnergyBalance {
+  Real error;  // (E - E0) + dissipated - work of the walls [J]; ~0 for a sound run
+  Real scale;  // energy in play: kinetic, rotational and elastic at start, |dPE|, dissipated, |wall work| [J]
+};
+
 /// Cost counters; particle-steps and force evaluations count every trial and retry.
 struct RunCounters {
   std::uint64_t sync_intervals = 0;
@@ -88,6 +94,10 @@ class World {
   Energies energies() const;
   /// Energy dissipated by contacts since the start (dashpots, sliding, rolling, released springs) [J].
   Real dissipated_energy() const;
+  /// Work the moving walls have done on the particles since the start [J].
+  Real wall_work() const { return wall_work_; }
+  /// Energy conservation check: a step beyond the stability limit shows as a large positive error.
+  EnergyBalance energy_balance() const;
   /// Total linear momentum of finite-mass particles [kg m/s].
   Vec3 linear_momentum() const;
   std::uint64_t state_hash() const;
@@ -106,6 +116,7 @@ class World {
   void evaluate_forces(Real h, bool force_rebuild);
   void rebuild_candidates();
   void step_exact(Real h);
+  Real wall_power() const;
   bool state_is_finite() const;
 
   WorldConfig config_;
@@ -133,6 +144,9 @@ class World {
   Real ended_dissipation_ = 0;  // dissipated by contacts that have ended [J]
   Real candidate_skin_ = 0;     // skin of the current candidate list [m] (the exact stepper widens it)
   ExactWorkspace exact_work_;
+  Real wall_work_ = 0;          // work of the walls on the particles [J]
+  bool walls_move_ = false;     // any wall with prescribed velocity
+  Energies start_energies_;     // at construction, for the energy balance
   Real exact_dissipated_ = 0;   // energy the exact stepper's contacts dissipated [J]
 };
 

@@ -135,6 +135,10 @@ class OutputSchedule {
   std::int64_t next_ = 0;
 };
 
+/// Energy appearing from nowhere beyond this fraction of the energy in play stops a run as diverged:
+/// sound runs stay orders of magnitude below (Verlet's error is ~(omega h)^2), unstable ones far above.
+constexpr Real energy_growth_limit = 0.5;
+
 class ProgressBar {
  public:
   ProgressBar(bool enabled, Real start, Real end) : enabled_(enabled), start_(start), end_(end) {}
@@ -245,12 +249,29 @@ int run_command(const RunOptions& options) {
 
   ProgressBar progress(!options.quiet && isatty(STDERR_FILENO), world.time(), scene.run.until);
   StepStatus status = StepStatus::ok;
+  std::string divergence;  // why the run diverged, when it did
   std::string stop_reason = "end time reached";
   Real last_written = world.time();
   while (world.time() < scene.run.until) {
     status = world.advance_sync_interval();
-    if (status != StepStatus::ok) break;
-    if (write_outputs(false)) last_written = world.time();
+    if (status != StepStatus::ok) {
+      divergence = "non-finite positions or velocities";
+      break;
+    }
+    if (write_outputs(false)) {
+      last_written = world.time();
+      // At each row, the energy audit: energy from nowhere means an unstable step.
+      const EnergyBalance b = world.energy_balance();
+      if (b.error > energy_growth_limit * b.scale) {
+        char text[256];
+        std::snprintf(text, sizeof text,
+                      "the energy grew by %.3g J beyond the work put in (%.0f%% of the %.3g J in play)", b.error,
+                      100 * b.error / b.scale, b.scale);
+        divergence = text;
+        status = StepStatus::non_finite;
+        break;
+      }
+    }
     if (checkpoints.due(world.time())) {
       const std::filesystem::path path = checkpoint_name(world.time());
       world.save_checkpoint(path.string(), scene.physics_hash);
@@ -318,7 +339,7 @@ int run_command(const RunOptions& options) {
       .add("seeds", seeds);
   JsonObject summary;
   summary.add("status", status == StepStatus::ok ? "ok" : "diverged")
-      .add("stop_reason", status == StepStatus::ok ? stop_reason : "non-finite state")
+      .add("stop_reason", status == StepStatus::ok ? stop_reason : divergence)
       .add("time", world.time())
       .add("settings", settings)
       .add("counters", counters)
@@ -336,8 +357,10 @@ int run_command(const RunOptions& options) {
   }
 
   if (status != StepStatus::ok) {
-    std::fprintf(stderr, "dem: the run diverged at t = %.9g s (non-finite positions or velocities); reduce integrator.dt\n",
-                 world.time());
+    std::fprintf(stderr,
+                 "dem: the run diverged at t = %.9g s: %s. The step is unstable: reduce integrator.dt "
+                 "(`dem check` prints the stability limit of each contact) or use integrator.method = \"exact\"\n",
+                 world.time(), divergence.c_str());
     return 3;
   }
   if (!options.quiet)
