@@ -152,6 +152,10 @@ void state_fields(Io& io, T& s) {
 }  // namespace
 
 void World::save_checkpoint(const std::string& path, std::uint64_t scene_hash) const {
+  write_file_atomically(path, checkpoint_bytes(scene_hash));
+}
+
+std::string World::checkpoint_bytes(std::uint64_t scene_hash) const {
   ByteWriter w;
   w.bytes().append(checkpoint_magic, sizeof checkpoint_magic);
   w.put(checkpoint_version);
@@ -176,7 +180,7 @@ void World::save_checkpoint(const std::string& path, std::uint64_t scene_hash) c
   w.put(candidates_.partner);
   const auto reference = skin_tracker_.reference();
   w.put(std::vector<Vec3>(reference.begin(), reference.end()));
-  write_file_atomically(path, w.finish());
+  return w.finish();
 }
 
 void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {

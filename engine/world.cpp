@@ -226,6 +226,30 @@ Real World::wall_power() const {
   return power;
 }
 
+World::Culprit World::fastest_particle() const {
+  Culprit c;
+  for (std::size_t p = 0; p < state_.size(); ++p) {
+    const Real v = state_.velocity[p].norm();
+    if (!(v <= c.value)) c = {state_.id[p], state_.id[p], v};  // NaN wins: it is the culprit
+  }
+  return c;
+}
+
+World::Culprit World::deepest_overlap() const {
+  Culprit c;
+  for (std::size_t k = 0; k < pairs_.size(); ++k) {
+    const ParticleIndex i = pairs_.i[k], j = pairs_.j[k];
+    const Real ratio = pairs_.overlap[k] / std::min(state_.radius[i], state_.radius[j]);
+    if (ratio > c.value) c = {state_.id[i], state_.id[j], ratio};
+  }
+  for (std::size_t k = 0; k < wall_contacts_.size(); ++k) {
+    const ParticleIndex p = wall_contacts_.particle[k];
+    const Real ratio = wall_contacts_.overlap[k] / state_.radius[p];
+    if (ratio > c.value) c = {state_.id[p], state_.id[p], ratio};
+  }
+  return c;
+}
+
 EnergyBalance World::energy_balance() const {
   const Energies now = energies();
   const Energies& e0 = start_energies_;

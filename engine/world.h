@@ -107,6 +107,19 @@ class World {
   /// Restores a checkpoint of a world built from the same scene; throws std::runtime_error when the
   /// file is not a checkpoint, is damaged, or belongs to other physics (another scene_hash).
   void load_checkpoint(const std::string& path, std::uint64_t scene_hash);
+  /// The bytes save_checkpoint would write (to keep the last good state in memory).
+  std::string checkpoint_bytes(std::uint64_t scene_hash) const;
+
+  /// For divergence messages: a particle and a number describing it.
+  struct Culprit {
+    ParticleId particle = 0;
+    ParticleId partner = 0;  // second particle of a pair (deepest overlap), else equal to particle
+    Real value = 0;
+  };
+  /// The particle with the largest speed [m/s].
+  Culprit fastest_particle() const;
+  /// The deepest pair or wall overlap as a fraction of the smaller radius involved.
+  Culprit deepest_overlap() const;
 
   /// Heap bytes held by particle, contact and broadphase arrays (capacities, scratch included).
   std::size_t memory_bytes() const;

@@ -38,6 +38,13 @@ TEST(CliDivergence, VerletBeyondTheStabilityLimitStopsWithExitThree) {
   EXPECT_NE(err.find("energy grew"), std::string::npos) << err;
   EXPECT_NE(err.find("integrator.dt"), std::string::npos) << "the message names the setting to change";
   EXPECT_NE(read(base / "unstable" / "summary.json").find("\"status\": \"diverged\""), std::string::npos);
+  EXPECT_NE(err.find("particle 0"), std::string::npos) << "the message names the particle";
+  // The last good state is kept as a checkpoint, and resuming it with a stable step works.
+  fs::path good;
+  for (const auto& e : fs::directory_iterator(base / "unstable"))
+    if (e.path().extension() == ".bin") good = e.path();
+  ASSERT_FALSE(good.empty()) << "no checkpoint of the last good state";
+  EXPECT_EQ(run("--set integrator.dt=0.1 --until 0.0001 --resume " + good.string(), base / "resumed"), 0);
 
   EXPECT_EQ(run("", base / "stable"), 0) << read(base / "stable.err");
   fs::remove_all(base);

@@ -138,6 +138,29 @@ class OutputSchedule {
 /// Energy appearing from nowhere beyond this fraction of the energy in play stops a run as diverged:
 /// sound runs stay orders of magnitude below (Verlet's error is ~(omega h)^2), unstable ones far above.
 constexpr Real energy_growth_limit = 0.5;
+/// An overlap beyond this fraction of the smaller radius is not a contact the linear law describes.
+constexpr Real overlap_limit = 0.5;
+
+/// The audit at each output row: empty if sound, else why the run must stop.
+std::string audit(const World& world) {
+  char text[320];
+  const EnergyBalance b = world.energy_balance();
+  if (b.error > energy_growth_limit * b.scale) {
+    const World::Culprit c = world.fastest_particle();
+    std::snprintf(text, sizeof text,
+                  "the energy grew by %.3g J beyond the work put in (%.0f%% of the %.3g J in play; fastest "
+                  "particle %u at %.3g m/s)",
+                  b.error, 100 * b.error / b.scale, b.scale, c.particle, c.value);
+    return text;
+  }
+  const World::Culprit o = world.deepest_overlap();
+  if (o.value > overlap_limit) {
+    std::snprintf(text, sizeof text, "particles %u and %u overlap by %.0f%% of the smaller radius (limit %.0f%%)",
+                  o.particle, o.partner, 100 * o.value, 100 * overlap_limit);
+    return text;
+  }
+  return "";
+}
 
 class ProgressBar {
  public:
@@ -250,27 +273,26 @@ int run_command(const RunOptions& options) {
   ProgressBar progress(!options.quiet && isatty(STDERR_FILENO), world.time(), scene.run.until);
   StepStatus status = StepStatus::ok;
   std::string divergence;  // why the run diverged, when it did
+  std::string last_good;   // checkpoint of the last audited row, written if the run diverges
+  Real last_good_time = world.time();
   std::string stop_reason = "end time reached";
   Real last_written = world.time();
   while (world.time() < scene.run.until) {
     status = world.advance_sync_interval();
     if (status != StepStatus::ok) {
-      divergence = "non-finite positions or velocities";
+      const World::Culprit c = world.fastest_particle();
+      divergence = "non-finite positions or velocities (particle " + std::to_string(c.particle) + ")";
       break;
     }
     if (write_outputs(false)) {
       last_written = world.time();
-      // At each row, the energy audit: energy from nowhere means an unstable step.
-      const EnergyBalance b = world.energy_balance();
-      if (b.error > energy_growth_limit * b.scale) {
-        char text[256];
-        std::snprintf(text, sizeof text,
-                      "the energy grew by %.3g J beyond the work put in (%.0f%% of the %.3g J in play)", b.error,
-                      100 * b.error / b.scale, b.scale);
-        divergence = text;
+      divergence = audit(world);
+      if (!divergence.empty()) {
         status = StepStatus::non_finite;
         break;
       }
+      last_good = world.checkpoint_bytes(scene.physics_hash);
+      last_good_time = world.time();
     }
     if (checkpoints.due(world.time())) {
       const std::filesystem::path path = checkpoint_name(world.time());
@@ -357,10 +379,16 @@ int run_command(const RunOptions& options) {
   }
 
   if (status != StepStatus::ok) {
+    std::string saved;
+    if (!last_good.empty()) {
+      const std::filesystem::path path = checkpoint_name(last_good_time);
+      write_file_atomically(path, last_good);
+      saved = " The last good state (t = " + std::to_string(last_good_time) + " s) is in " + path.string() + ".";
+    }
     std::fprintf(stderr,
                  "dem: the run diverged at t = %.9g s: %s. The step is unstable: reduce integrator.dt "
-                 "(`dem check` prints the stability limit of each contact) or use integrator.method = \"exact\"\n",
-                 world.time(), divergence.c_str());
+                 "(`dem check` prints the stability limit of each contact) or use integrator.method = \"exact\".%s\n",
+                 world.time(), divergence.c_str(), saved.c_str());
     return 3;
   }
   if (!options.quiet)
