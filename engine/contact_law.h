@@ -56,6 +56,18 @@ inline Vec3 project_keep_length(const Vec3& v, const Vec3& n) {
   return p;
 }
 
+/// The kinetic (sliding or rolling) response: magnitude `limit` against the relative motion `rate`,
+/// along the spring's pull when the motion vanishes exactly; the spring is reset to match.
+inline Vec3 kinetic_response(Vec3& spring, const Vec3& rate, const Vec3& elastic, Real k, Real limit) {
+  const Real rate_norm = rate.norm(), elastic_norm = elastic.norm();
+  const Vec3 direction = rate_norm > 0      ? Vec3(-rate / rate_norm)
+                         : elastic_norm > 0 ? Vec3(elastic / elastic_norm)
+                                            : Vec3(Vec3::Zero());
+  const Vec3 response = limit * direction;
+  spring = -response / k;
+  return response;
+}
+
 /// Tangential spring-dashpot-slider (PHYSICS.md 1.3, 1.5): while stuck, the spring xi advances by
 /// u_t h and the force is -k xi - c u_t; while sliding, F_t = -mu F_n along the slip.
 ///  - Stick -> slide when the spring force exceeds mu_s F_n, or when the contact slips so fast that
@@ -83,12 +95,7 @@ inline Vec3 spring_slider(Vec3& spring, std::uint8_t& mode, const Vec3& rate, Re
     return total;
   }
   mode = static_cast<std::uint8_t>(mode | mode_sliding);
-  const Real rate_norm = rate.norm();
-  // Against the slip; along the spring when the slip vanishes exactly.
-  const Vec3 direction = rate_norm > 0 ? Vec3(-rate / rate_norm) : elastic_norm > 0 ? Vec3(elastic / elastic_norm) : Vec3(Vec3::Zero());
-  const Vec3 force = kinetic_limit * direction;
-  spring = -force / k;
-  return force;
+  return kinetic_response(spring, rate, elastic, k, kinetic_limit);
 }
 
 /// Rolling resistance (PHYSICS.md 1.4, 1.5): a static hold by a rotational spring-dashpot (Ai et al.
@@ -131,12 +138,7 @@ inline Vec3 rolling_spring(Vec3& spring, std::uint8_t& mode, const Vec3& rate, R
     return elastic + viscous;
   }
   mode = static_cast<std::uint8_t>(mode | mode_rolling);
-  const Real rate_norm = rate.norm();
-  // Kinetic torque against omega_r; along the spring when omega_r vanishes exactly.
-  const Vec3 direction = rate_norm > 0 ? Vec3(-rate / rate_norm) : elastic_norm > 0 ? Vec3(elastic / elastic_norm) : Vec3(Vec3::Zero());
-  const Vec3 torque = kinetic_limit * direction;
-  spring = -torque / k;
-  return torque;
+  return kinetic_response(spring, rate, elastic, k, kinetic_limit);
 }
 
 }  // namespace law_detail

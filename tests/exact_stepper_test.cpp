@@ -8,6 +8,7 @@
 
 #include "engine/damping.h"
 #include "engine/world.h"
+#include "tests/contact_scenes.h"
 #include "tests/test_scenes.h"
 
 namespace dem {
@@ -22,15 +23,6 @@ WorldConfig exact_config(Real dt) {
   return c;
 }
 
-ParticleConfig ball(const Vec3& x, const Vec3& v, Real radius, Real mass) {
-  ParticleConfig p;
-  p.position = x;
-  p.velocity = v;
-  p.radius = radius;
-  p.mass = mass;
-  return p;
-}
-
 void advance(World& w, long steps) {
   for (long s = 0; s < steps; ++s) ASSERT_EQ(w.advance_sync_interval(), StepStatus::ok);
 }
@@ -41,7 +33,7 @@ TEST(ExactStepper, FreeFallIsExactAtEveryLevel) {
     const Real dt = std::ldexp(1e-3, level);
     WorldConfig c = exact_config(dt);
     c.model.gravity = g;
-    c.particles = {ball(x0, v0, 0.1, 1)};
+    c.particles = {test::particle(x0, v0, 0.1, 1)};
     World w(c);
     const long steps = 64;
     advance(w, steps);
@@ -63,8 +55,8 @@ HeadOn head_on(Separation separation, Real dt, Real zeta) {
   WorldConfig c = exact_config(dt);
   c.model.separation = separation;
   c.contacts[0].normal_damping = {DampingKind::damping_ratio, zeta};
-  c.particles = {ball(Vec3(-radius - 0.5 * gap, 0, 0), Vec3(v, 0, 0), radius, 1),
-                 ball(Vec3(radius + 0.5 * gap, 0, 0), Vec3(-v, 0, 0), radius, 1)};
+  c.particles = {test::particle(Vec3(-radius - 0.5 * gap, 0, 0), Vec3(v, 0, 0), radius, 1),
+                 test::particle(Vec3(radius + 0.5 * gap, 0, 0), Vec3(-v, 0, 0), radius, 1)};
   World w(c);
   const Real onset = gap / (2 * v);
   const Real t_c_bound = 10 * 7.1e-3;
@@ -109,7 +101,7 @@ TEST(ExactStepper, UndampedBounceConservesEnergyToRoundOffAtAnyStep) {
     WallConfig floor;
     floor.kind = WallKind::plane;
     c.walls = {floor};
-    c.particles = {ball(Vec3(0.2, -0.1, 0.15), Vec3(0.3, 0.1, -1), 0.1, 1)};
+    c.particles = {test::particle(Vec3(0.2, -0.1, 0.15), Vec3(0.3, 0.1, -1), 0.1, 1)};
     World w(c);
     const auto energy = [&] {
       const Energies e = w.energies();
@@ -140,7 +132,7 @@ TEST(ExactStepper, BallHitByAMovingWallIsExactAtAnyStep) {
     floor.kind = WallKind::plane;
     floor.velocity = Vec3(0, 0, 1);
     c.walls = {floor};
-    c.particles = {ball(Vec3(0, 0, r + gap), Vec3::Zero(), r, m)};
+    c.particles = {test::particle(Vec3(0, 0, r + gap), Vec3::Zero(), r, m)};
     World w(c);
     advance(w, static_cast<long>(std::ceil(0.05 / dt)));
     const Real release = gap + t_c;  // the wall moves at 1 m/s: it meets the ball at t = gap
@@ -179,7 +171,7 @@ TEST(ExactStepper, PackingConservesMomentumAndIsThreadIndependent) {
 TEST(ExactStepper, RefusesFrictionForNow) {
   WorldConfig c = exact_config(1e-3);
   c.contacts[0].sliding_friction = 0.5;
-  c.particles = {ball(Vec3::Zero(), Vec3::Zero(), 0.1, 1)};
+  c.particles = {test::particle(Vec3::Zero(), Vec3::Zero(), 0.1, 1)};
   EXPECT_THROW(World w(c), std::invalid_argument);
 }
 

@@ -7,18 +7,10 @@
 #include <limits>
 
 #include "engine/world.h"
+#include "tests/contact_scenes.h"
 
 namespace dem {
 namespace {
-
-ParticleConfig particle(const Vec3& x, const Vec3& v, Real r, Real m) {
-  ParticleConfig p;
-  p.position = x;
-  p.velocity = v;
-  p.radius = r;
-  p.mass = m;
-  return p;
-}
 
 TEST(World, ImmovableParticlesTouchingEachOtherAndAWallStayFinite) {
   const Real inf = std::numeric_limits<Real>::infinity();
@@ -32,9 +24,9 @@ TEST(World, ImmovableParticlesTouchingEachOtherAndAWallStayFinite) {
     floor.kind = WallKind::plane;
     c.walls = {floor};
     // Two immovable spheres overlapping each other and the floor, a movable one resting on them.
-    c.particles = {particle(Vec3(0, 0, 0.099), Vec3::Zero(), 0.1, inf),
-                   particle(Vec3(0.199, 0, 0.099), Vec3::Zero(), 0.1, inf),
-                   particle(Vec3(0.1, 0, 0.27), Vec3::Zero(), 0.1, 1.0)};
+    c.particles = {test::particle(Vec3(0, 0, 0.099), Vec3::Zero(), 0.1, inf),
+                   test::particle(Vec3(0.199, 0, 0.099), Vec3::Zero(), 0.1, inf),
+                   test::particle(Vec3(0.1, 0, 0.27), Vec3::Zero(), 0.1, 1.0)};
     World w(c);
     for (int s = 0; s < 2000; ++s) ASSERT_EQ(w.advance_sync_interval(), StepStatus::ok);
     EXPECT_TRUE(std::isfinite(w.dissipated_energy()));
@@ -46,7 +38,7 @@ TEST(World, ImmovableParticlesTouchingEachOtherAndAWallStayFinite) {
 
 TEST(World, RefusesWhatARunCannotSurvive) {
   WorldConfig c;
-  c.particles = {particle(Vec3::Zero(), Vec3::Zero(), 0.1, 1)};
+  c.particles = {test::particle(Vec3::Zero(), Vec3::Zero(), 0.1, 1)};
   c.integrator.dt = 0;
   EXPECT_THROW(World w(c), std::invalid_argument);
   c.integrator.dt = 1e-4;
