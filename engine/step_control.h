@@ -1,0 +1,38 @@
+#pragma once
+// Step-doubling error control (PHYSICS.md 4): the per-particle error norm comparing one full step
+// with two half steps, the level decision it implies, and the Richardson-improved value. Pure
+// functions; the scheduler (issue: step doubling) applies them to islands.
+#include "engine/config.h"
+
+namespace dem {
+
+/// One particle's state after a trial: position, velocity, angular velocity.
+struct TrialState {
+  Vec3 position;          // [m]
+  Vec3 velocity;          // [m/s]
+  Vec3 angular_velocity;  // [rad/s]
+};
+
+/// Seed formula (3) as reconstructed, with the angular extension [E]:
+///   E = (|x1 - x2| + w dt |v1 - v2| + w R dt |omega1 - omega2|) / (|dX| + dx_min R)
+/// with one = the full step, two = two half steps, dt the full step [s], dX the displacement over the
+/// step [m], w the velocity weight and dx_min relative to the radius R.
+Real step_error(const TrialState& one, const TrialState& two, const Vec3& displacement, Real dt, Real radius,
+                Real velocity_weight, Real dx_min);
+
+/// What to do after a trial at `level` with error `error` (PHYSICS.md 4, 5).
+struct LevelDecision {
+  bool accept;   // keep the step (always at level_min: then `forced`)
+  bool forced;   // accepted only because level_min was reached
+  int level;     // the level of the retry (rejected) or of the next step (accepted)
+};
+
+/// Order p of the stepper (verlet 2, exact 1), safety S, tolerance, and whether the current tick is
+/// aligned with the doubled step (promotion only then, PHYSICS.md 5).
+LevelDecision decide_level(Real error, int level, int level_min, int level_max, int order, Real safety,
+                           Real tolerance, bool aligned_for_promotion);
+
+/// Richardson-improved value y* = (2^p y2 - y1) / (2^p - 1), of order p + 1.
+Vec3 richardson(const Vec3& one, const Vec3& two, int order);
+
+}  // namespace dem
