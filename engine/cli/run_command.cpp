@@ -271,15 +271,13 @@ int run_command(const RunOptions& options) {
   };
 
   ProgressBar progress(!options.quiet && isatty(STDERR_FILENO), world.time(), scene.run.until);
-  StepStatus status = StepStatus::ok;
-  std::string divergence;  // why the run diverged, when it did
+  std::string divergence;  // why the run diverged; empty while it has not
   std::string last_good;   // checkpoint of the last audited row, written if the run diverges
   Real last_good_time = world.time();
   std::string stop_reason = "end time reached";
   Real last_written = world.time();
   while (world.time() < scene.run.until) {
-    status = world.advance_sync_interval();
-    if (status != StepStatus::ok) {
+    if (world.advance_sync_interval() != StepStatus::ok) {
       const World::Culprit c = world.fastest_particle();
       divergence = "non-finite positions or velocities (particle " + std::to_string(c.particle) + ")";
       break;
@@ -287,10 +285,7 @@ int run_command(const RunOptions& options) {
     if (write_outputs(false)) {
       last_written = world.time();
       divergence = audit(world);
-      if (!divergence.empty()) {
-        status = StepStatus::non_finite;
-        break;
-      }
+      if (!divergence.empty()) break;
       last_good = world.checkpoint_bytes(scene.physics_hash);
       last_good_time = world.time();
     }
@@ -313,10 +308,10 @@ int run_command(const RunOptions& options) {
     progress.update(world.time(), std::chrono::duration<double>(std::chrono::steady_clock::now() - start_wall).count());
   }
   progress.finish();
-  if (world.time() > last_written && status == StepStatus::ok) write_outputs(true);
+  if (world.time() > last_written && divergence.empty()) write_outputs(true);
   const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_wall).count();
 
-  if (!scene.output.settled_file.empty() && status == StepStatus::ok) {
+  if (!scene.output.settled_file.empty() && divergence.empty()) {
     std::vector<ParticleConfig> settled;
     const State& s = world.state();
     for (ParticleIndex p : s.index_of_id) {
@@ -360,8 +355,8 @@ int run_command(const RunOptions& options) {
       .add("threads", world.thread_count())
       .add("seeds", seeds);
   JsonObject summary;
-  summary.add("status", status == StepStatus::ok ? "ok" : "diverged")
-      .add("stop_reason", status == StepStatus::ok ? stop_reason : divergence)
+  summary.add("status", divergence.empty() ? "ok" : "diverged")
+      .add("stop_reason", divergence.empty() ? stop_reason : divergence)
       .add("time", world.time())
       .add("settings", settings)
       .add("counters", counters)
@@ -372,13 +367,13 @@ int run_command(const RunOptions& options) {
       .add("state_hash", hex(world.state_hash()))
       .add("provenance", provenance);
   write_file_atomically(out / "summary.json", summary.dump(2) + "\n");
-  if (status == StepStatus::ok) {
+  if (divergence.empty()) {
     const std::filesystem::path path = checkpoint_name(world.time());
     world.save_checkpoint(path.string(), scene.physics_hash);
     if (!last_checkpoint.empty() && last_checkpoint != path) std::filesystem::remove(last_checkpoint);
   }
 
-  if (status != StepStatus::ok) {
+  if (!divergence.empty()) {
     std::string saved;
     if (!last_good.empty()) {
       const std::filesystem::path path = checkpoint_name(last_good_time);
