@@ -2,7 +2,7 @@
 # Installs, with apt-get, whatever the build needs and this Debian bookworm machine lacks
 # (compiler and CMake included). Idempotent: installed packages are skipped. Run as root.
 set -euo pipefail
-packages=(g++ cmake ninja-build git python3 python3-matplotlib
+packages=(g++ cmake ninja-build git
   libeigen3-dev libtbb-dev libnanoflann-dev libgtest-dev libbenchmark-dev libbenchmark-tools
   libtomlplusplus-dev libcli11-dev)
 missing=()
