@@ -14,11 +14,16 @@ std::uint32_t root(std::vector<std::uint32_t>& parent, std::uint32_t p) {
 }  // namespace
 
 void find_islands(std::size_t n, const PairContacts& contacts, Islands& islands) {
+  find_islands(n, contacts.i, contacts.j, islands);
+}
+
+void find_islands(std::size_t n, std::span<const ParticleIndex> first, std::span<const ParticleIndex> second,
+                  Islands& islands) {
   auto& parent = islands.parent;
   parent.resize(n);
   for (std::size_t p = 0; p < n; ++p) parent[p] = static_cast<std::uint32_t>(p);
-  for (std::size_t k = 0; k < contacts.size(); ++k) {
-    const std::uint32_t a = root(parent, contacts.i[k]), b = root(parent, contacts.j[k]);
+  for (std::size_t k = 0; k < first.size(); ++k) {
+    const std::uint32_t a = root(parent, first[k]), b = root(parent, second[k]);
     if (a < b) parent[b] = a;
     else if (b < a) parent[a] = b;
   }

@@ -6,6 +6,7 @@
 // Serial union-find in contact order: the labels (smallest slot of the component) and the member
 // order (ascending slot) do not depend on anything but the contact list.
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "engine/contacts.h"
@@ -23,5 +24,8 @@ struct Islands {
 
 /// Groups `particle_count` particles into islands joined by the contacts.
 void find_islands(std::size_t particle_count, const PairContacts& contacts, Islands& islands);
+/// The same for any links: particles first[k] and second[k] share an island.
+void find_islands(std::size_t particle_count, std::span<const ParticleIndex> first,
+                  std::span<const ParticleIndex> second, Islands& islands);
 
 }  // namespace dem

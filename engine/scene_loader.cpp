@@ -530,8 +530,6 @@ void read_integrator(TableReader& top, Scene& scene) {
   c.dx_min = r.positive("dx_min", c.dx_min);
   c.richardson = r.boolean("richardson", c.richardson);
   r.finish();
-  if (c.control == Control::doubling)
-    r.fail("control", "not available yet in this build: use control = \"fixed\"");
   if (c.method == Method::exact)
     for (const ContactConfig& contact : scene.world.contacts)
       if (contact.sliding_friction > 0 || contact.static_friction > 0 || contact.rolling_friction > 0 ||

@@ -7,6 +7,7 @@
 #include <tbb/task_arena.h>
 
 #include "engine/checkpoint.h"
+#include "engine/doubling_work.h"
 #include "engine/exact_stepper.h"
 #include "engine/integrators.h"
 #include "engine/parallel.h"
@@ -28,8 +29,6 @@ World::World(const WorldConfig& config)
       scheduler_(config.integrator) {
   if (config_.model.dimension != 2 && config_.model.dimension != 3)
     throw std::invalid_argument("model.dimension must be 2 or 3");
-  if (config_.integrator.control != Control::fixed)
-    throw std::invalid_argument("only control fixed is implemented so far");
   // Embedding programs bypass the scene loader's checks: the ones a run cannot survive are here too.
   if (!(config_.integrator.dt > 0) || !std::isfinite(config_.integrator.dt))
     throw std::invalid_argument("integrator.dt must be a finite time step > 0 [s]");
@@ -64,6 +63,7 @@ World::World(const WorldConfig& config)
   for (const WallConfig& w : config_.walls)
     walls_move_ = walls_move_ || w.velocity.norm() > 0 || w.angular_velocity.norm() > 0;
   start_energies_ = energies();
+  if (config_.integrator.control == Control::doubling) init_doubling();
 }
 
 World::~World() = default;
@@ -129,6 +129,7 @@ void World::step_exact(Real h) {
 }
 
 StepStatus World::advance_sync_interval() {
+  if (config_.integrator.control == Control::doubling) return advance_doubling_interval();
   // Fixed control: one step of dt per sync interval, every particle at level 0. Velocity Verlet:
   // kick, drift, forces, kick. Exact: scheme (D) of exact pair flows (exact_stepper.h), then the
   // contact forces of the new state for outputs (springs, wall loads; h = 0 leaves histories alone).

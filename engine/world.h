@@ -29,6 +29,8 @@
 
 namespace dem {
 
+struct DoublingWork;
+
 /// Outcome of advancing; anything but `ok` leaves the state inspectable and the run stopped.
 enum class StepStatus { ok, non_finite };
 
@@ -55,6 +57,10 @@ struct RunCounters {
   std::uint64_t particle_steps = 0;
   std::uint64_t force_evaluations = 0;
   std::uint64_t pair_rebuilds = 0;
+  // Step doubling only:
+  std::uint64_t richardson_steps = 0;     // island steps that took the improved value
+  std::uint64_t round_redos = 0;          // island rounds redone: a contact between islands or a skin overrun
+  std::vector<std::uint64_t> level_histogram;  // accepted particle-steps per level - level_min
 };
 
 class World {
@@ -129,6 +135,15 @@ class World {
   void evaluate_forces(Real h, bool force_rebuild);
   void rebuild_candidates();
   void step_exact(Real h);
+  // Step doubling (world_doubling.cpp).
+  void init_doubling();
+  StepStatus advance_doubling_interval();
+  int round_level(std::int64_t tick);
+  void run_round(std::int64_t tick, int level);
+  void find_round_islands(Real h);
+  void run_islands(const std::vector<std::uint32_t>& which, std::int64_t tick, int level);
+  bool find_conflicts();
+  void finish_round();
   Real wall_power() const;
   bool state_is_finite() const;
 
@@ -161,6 +176,7 @@ class World {
   bool walls_move_ = false;     // any wall with prescribed velocity
   Energies start_energies_;     // at construction, for the energy balance
   Real exact_dissipated_ = 0;   // energy the exact stepper's contacts dissipated [J]
+  std::unique_ptr<DoublingWork> doubling_;  // step doubling's islands and scratch
 };
 
 }  // namespace dem

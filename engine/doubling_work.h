@@ -1,0 +1,39 @@
+#pragma once
+// What the World keeps between rounds of step doubling (world_doubling.cpp): the islands of the
+// round, each island's cut-out copy, and per-thread scratch. Private to the World.
+#include <cstdint>
+#include <vector>
+
+#include <tbb/enumerable_thread_specific.h>
+
+#include "engine/island_stepper.h"
+#include "engine/islands.h"
+
+namespace dem {
+
+/// One island of a round: its copy of the particles and contacts, and its own candidate pairs.
+struct IslandJob {
+  IslandState island;
+  broadphase::CandidatePairs candidates;
+  int level = 0;  // the level of its next step, after the round
+};
+
+struct DoublingWork {
+  explicit DoublingWork(const IslandScratch& exemplar) : scratch(exemplar) {}
+
+  IslandPhysics physics;
+  int contact_level = 0;  // steps at or below it resolve any contact (t_c / 8)
+  Real skin_cap = 0;      // widest candidate skin a round may ask for [m]
+
+  Islands islands;
+  std::vector<std::uint32_t> local_index;  // per particle: its place in its island
+  std::vector<ParticleIndex> link_a, link_b;         // contacts and anticipated pairs of the round
+  std::vector<ParticleIndex> conflict_a, conflict_b;  // pairs of islands found to interact: redone together
+  std::vector<IslandJob> jobs;                        // per island
+  std::vector<Real> excursion;                        // per particle: farthest from its round start [m]
+  State next;                                         // the state at the end of the round
+  tbb::enumerable_thread_specific<IslandScratch> scratch;
+  tbb::enumerable_thread_specific<DoublingCounters> counters;
+};
+
+}  // namespace dem

@@ -1,0 +1,229 @@
+#include "engine/island_stepper.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "engine/integrators.h"
+#include "engine/step_control.h"
+
+namespace dem {
+namespace {
+
+Real wall_power(const Walls& walls, const WallContacts& c) {
+  Real power = 0;  // serial, in contact order: deterministic
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    power += c.force[k].dot(walls.velocity_at(c.wall[k], c.point[k]));
+    power += c.rolling_torque[k].dot(walls.angular_velocity(c.wall[k]));
+  }
+  return power;
+}
+
+/// Contacts from the current positions and their forces; h is the step the springs advance by.
+void evaluate_forces(IslandState& s, const broadphase::CandidatePairs& candidates, const IslandPhysics& physics,
+                     IslandScratch& scratch, Real h) {
+  State& st = s.state;
+  s.ended_dissipation += update_pair_contacts(st, candidates, *physics.materials, s.pairs, scratch.contacts);
+  build_pair_adjacency(st.size(), s.pairs, s.adjacency);
+  s.ended_dissipation +=
+      update_wall_contacts(st, scratch.walls, *physics.materials, s.walls, scratch.contacts, s.adjacency.wall_start);
+  physics.kernels.pair_forces(st, s.pairs, h);
+  physics.kernels.wall_forces(st, scratch.walls, s.walls, h);
+  gather_forces(st, s.pairs, s.walls, s.adjacency, physics.kernels.uses_rotation, physics.dimension);
+}
+
+/// One step of h from time t with the run's method; returns the particle-steps a redo cost.
+std::uint64_t step(IslandState& s, const broadphase::CandidatePairs& candidates, const IslandPhysics& physics,
+                   IslandScratch& scratch, Real t, Real h) {
+  State& st = s.state;
+  if (physics.method == Method::exact) {
+    const ExactSettings settings{physics.separation, physics.gravity, physics.dimension};
+    const std::uint64_t retries = scratch.exact.retries;
+    s.exact_dissipated += exact_step(st, scratch.walls, *physics.materials, candidates, settings, t, h, scratch.exact);
+    return (scratch.exact.retries - retries) * st.size();
+  }
+  const bool rotation = physics.kernels.uses_rotation;
+  kick(st, 0.5 * h, physics.gravity, rotation, physics.dimension);
+  drift(st, h);
+  scratch.walls.set_time(t + h);
+  evaluate_forces(s, candidates, physics, scratch, h);
+  kick(st, 0.5 * h, physics.gravity, rotation, physics.dimension);
+  // Work of moving walls, with the forces at the end of the step (a rectangle rule: an audit only).
+  if (physics.walls_move) s.wall_work += h * wall_power(scratch.walls, s.walls);
+  return 0;
+}
+
+/// Widens each member's excursion to its current distance from the start of the round; `bulge`
+/// bounds how far a path strays from the chord between step ends (0 for Verlet's straight drift).
+void track_excursion(IslandState& s, const std::vector<Vec3>& origin, Real bulge) {
+  for (std::size_t q = 0; q < s.state.size(); ++q)
+    s.excursion[q] = std::max(s.excursion[q], (s.state.position[q] - origin[q]).norm() + bulge);
+}
+
+/// Largest error of seed formula (3) over the island's movable members; NaN if any is NaN.
+Real island_error(const IslandState& start, const IslandState& full, const IslandState& half, Real h,
+                  const DoublingSettings& settings) {
+  Real worst = 0;
+  const State& a = full.state;
+  const State& b = half.state;
+  for (std::size_t q = 0; q < a.size(); ++q) {
+    if (a.inv_mass[q] == 0) continue;
+    const TrialState one{a.position[q], a.velocity[q], a.angular_velocity[q]};
+    const TrialState two{b.position[q], b.velocity[q], b.angular_velocity[q]};
+    const Real e = step_error(one, two, b.position[q] - start.state.position[q], h, a.radius[q],
+                              settings.velocity_weight, settings.dx_min);
+    if (!(e <= worst)) worst = e;  // NaN wins, so a broken trial is rejected
+  }
+  return worst;
+}
+
+/// The same contacts in the same modes at the start and at the end of both trials: no event
+/// (onset, release, mode change) happened, so the Richardson value is sound (PHYSICS.md 4).
+bool same_contacts(const IslandState& start, const IslandState& full, const IslandState& half) {
+  if (start.pairs.key != half.pairs.key || full.pairs.key != half.pairs.key) return false;
+  if (start.walls.key != half.walls.key || full.walls.key != half.walls.key) return false;
+  for (std::size_t k = 0; k < half.pairs.size(); ++k)
+    if (start.pairs.history[k].mode != half.pairs.history[k].mode ||
+        full.pairs.history[k].mode != half.pairs.history[k].mode)
+      return false;
+  for (std::size_t k = 0; k < half.walls.size(); ++k)
+    if (start.walls.history[k].mode != half.walls.history[k].mode ||
+        full.walls.history[k].mode != half.walls.history[k].mode)
+      return false;
+  return true;
+}
+
+/// Replaces the two-half-step result by the Richardson value y* = (2^p y2 - y1) / (2^p - 1) for the
+/// whole island (partners never mix y* and y2, so momentum stays exact), then re-evaluates the
+/// forces there without advancing the springs (h = 0).
+void apply_richardson(IslandState& half, const IslandState& full, const broadphase::CandidatePairs& candidates,
+                      const IslandPhysics& physics, IslandScratch& scratch) {
+  const int order = 2;
+  State& b = half.state;
+  const State& a = full.state;
+  for (std::size_t q = 0; q < b.size(); ++q) {
+    if (b.inv_mass[q] == 0) continue;
+    b.position[q] = richardson(a.position[q], b.position[q], order);
+    b.velocity[q] = richardson(a.velocity[q], b.velocity[q], order);
+    if (physics.kernels.uses_rotation) b.angular_velocity[q] = richardson(a.angular_velocity[q], b.angular_velocity[q], order);
+    if (physics.dimension == 2) b.position[q].z() = 0, b.velocity[q].z() = 0;
+  }
+  evaluate_forces(half, candidates, physics, scratch, 0);
+}
+
+std::int64_t ticks_of_level(int level, int level_min) { return std::int64_t{1} << (level - level_min); }
+
+}  // namespace
+
+void DoublingCounters::add(const DoublingCounters& o) {
+  accepted += o.accepted;
+  rejected += o.rejected;
+  forced += o.forced;
+  particle_steps += o.particle_steps;
+  force_evaluations += o.force_evaluations;
+  richardson += o.richardson;
+  if (histogram.size() < o.histogram.size()) histogram.resize(o.histogram.size(), 0);
+  for (std::size_t k = 0; k < o.histogram.size(); ++k) histogram[k] += o.histogram[k];
+}
+
+int anticipation_level(const IslandState& island, const broadphase::CandidatePairs& candidates, const Walls& walls,
+                       const Vec3& gravity, Real dt_base, int level, int contact_level) {
+  const State& s = island.state;
+  auto acceleration = [&](std::size_t q) -> Vec3 {
+    return s.inv_mass[q] == 0 ? Vec3(Vec3::Zero()) : Vec3(s.inv_mass[q] * s.force[q] + gravity);
+  };
+  auto clear_at = [&](int l) {
+    const Real h = std::ldexp(dt_base, l);
+    for (std::size_t a = 0; a < s.size(); ++a) {
+      for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
+        const std::size_t b = candidates.partner[k];
+        if (s.inv_mass[a] == 0 && s.inv_mass[b] == 0) continue;
+        const Real gap = (s.position[a] - s.position[b]).norm() - s.radius[a] - s.radius[b];
+        if (gap <= 0) continue;  // in contact: the error control's business
+        const Real closing = (s.velocity[a] - s.velocity[b]).norm() * h +
+                             0.5 * (acceleration(a) - acceleration(b)).norm() * h * h;
+        if (2 * closing > gap) return false;
+      }
+      if (s.inv_mass[a] == 0) continue;
+      std::uint32_t features[6];
+      for (std::size_t w = 0; w < walls.count(); ++w) {
+        const Real closing = (s.velocity[a] - walls.velocity_at(w, s.position[a])).norm() * h +
+                             0.5 * acceleration(a).norm() * h * h;
+        // A wall feature within twice the closing distance that is not touched yet.
+        if (walls.touching_features(w, s.position[a], s.radius[a] + 2 * closing, features) >
+            walls.touching_features(w, s.position[a], s.radius[a], features))
+          return false;
+      }
+    }
+    return true;
+  };
+  for (int l = level; l > contact_level; --l)
+    if (clear_at(l)) return l;
+  return std::min(level, contact_level);
+}
+
+int advance_island(IslandState& island, const broadphase::CandidatePairs& candidates, const IslandPhysics& physics,
+                   const DoublingSettings& settings, IslandScratch& scratch, Real t0, std::int64_t begin,
+                   std::int64_t end, int level, DoublingCounters& counters) {
+  const std::uint64_t n = island.state.size();
+  const Real finest = std::ldexp(settings.dt_base, settings.level_min);
+  const int order = physics.method == Method::exact ? 1 : 2;
+  const Real bulge_per_h2 = physics.method == Method::exact ? physics.gravity.norm() / 8 : 0;
+  counters.histogram.resize(settings.level_max - settings.level_min + 1, 0);
+  scratch.origin = island.state.position;
+  island.excursion.assign(n, 0);
+  std::int64_t tick = begin;
+  level = std::clamp(level, settings.level_min, settings.level_max);
+  while (tick < end) {
+    // A step starts only where its level is aligned and ends inside the round.
+    while (level > settings.level_min &&
+           (tick % ticks_of_level(level, settings.level_min) != 0 || tick + ticks_of_level(level, settings.level_min) > end))
+      --level;
+    const Real t = t0 + static_cast<Real>(tick) * finest;
+    if (physics.method == Method::verlet && level > settings.contact_level) {
+      scratch.walls.set_time(t);
+      level = anticipation_level(island, candidates, scratch.walls, physics.gravity, settings.dt_base, level,
+                                 settings.contact_level);
+    }
+    for (;;) {
+      const std::int64_t ticks = ticks_of_level(level, settings.level_min);
+      const Real h = std::ldexp(settings.dt_base, level);
+      IslandState& full = scratch.full;
+      IslandState& half = scratch.half;
+      full = island;
+      half = island;
+      std::uint64_t redone = step(full, candidates, physics, scratch, t, h);
+      redone += step(half, candidates, physics, scratch, t, 0.5 * h);
+      track_excursion(half, scratch.origin, bulge_per_h2 * 0.25 * h * h);
+      redone += step(half, candidates, physics, scratch, t + 0.5 * h, 0.5 * h);
+      track_excursion(half, scratch.origin, bulge_per_h2 * 0.25 * h * h);
+      counters.particle_steps += 3 * n + redone;
+      counters.force_evaluations += 3 * n + redone;
+      counters.rejected += redone;
+      const Real error = island_error(island, full, half, h, settings);
+      const bool aligned = (tick + ticks) % (2 * ticks) == 0;
+      const LevelDecision d = decide_level(error, level, settings.level_min, settings.level_max, order,
+                                           settings.safety, settings.tolerance, aligned);
+      if (!d.accept) {
+        counters.rejected += n;
+        level = d.level;
+        continue;
+      }
+      if (settings.richardson && physics.method == Method::verlet && std::isfinite(error) &&
+          same_contacts(island, full, half)) {
+        apply_richardson(half, full, candidates, physics, scratch);
+        counters.force_evaluations += n;
+        ++counters.richardson;
+      }
+      std::swap(island, half);
+      counters.accepted += n;
+      if (d.forced) counters.forced += n;
+      counters.histogram[level - settings.level_min] += n;
+      tick += ticks;
+      level = d.level;
+      break;
+    }
+  }
+  return level;
+}
+
+}  // namespace dem

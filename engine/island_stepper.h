@@ -1,0 +1,88 @@
+#pragma once
+// Step doubling on one island (PHYSICS.md 4 and 5; DESIGN.md, Time). An island is cut out of the
+// World with its particles in ascending slot order (so ids, contact keys and row order are the
+// World's), the candidate pairs among them and its contacts with their history. It steps with the
+// kernels of the fixed control (Verlet kick-drift-forces-kick, or exact_step), three times per
+// attempt: once over h and twice over h/2. The per-particle error of seed formula (3) decides:
+// reject and retry at a finer level, or accept the two half steps and choose the next level.
+// Reads only its own copy; the World gathers islands from its state and scatters them back, so
+// islands are independent and may run in any order on any thread.
+#include <cstdint>
+#include <vector>
+
+#include "broadphase/candidate_pairs.h"
+#include "engine/contacts.h"
+#include "engine/exact_stepper.h"
+#include "engine/forces.h"
+#include "engine/materials.h"
+#include "engine/state.h"
+#include "engine/walls.h"
+
+namespace dem {
+
+/// What changes when an island steps; copied for each trial, so a rejected step needs no undo.
+struct IslandState {
+  State state;
+  PairContacts pairs;
+  WallContacts walls;
+  ContactAdjacency adjacency;
+  std::vector<Real> excursion;  // per member: farthest distance from its start of the round [m]
+  Real ended_dissipation = 0;   // by contacts that ended (Verlet) [J]
+  Real exact_dissipated = 0;    // by the exact stepper's flows [J]
+  Real wall_work = 0;           // by moving walls on the island [J]
+};
+
+/// The physics every island shares.
+struct IslandPhysics {
+  const MaterialTable* materials = nullptr;
+  ForceKernels kernels;
+  Vec3 gravity = Vec3::Zero();
+  int dimension = 3;
+  Method method = Method::verlet;
+  Separation separation = Separation::force_zero;
+  bool walls_move = false;
+};
+
+/// The error control of one round.
+struct DoublingSettings {
+  int level_min = 0;
+  int level_max = 0;      // the round's level: no step is longer than the round
+  Real dt_base = 0;       // [s]
+  Real tolerance = 0;
+  Real safety = 0.8;
+  Real velocity_weight = 1;
+  Real dx_min = 1e-3;     // relative to the radius
+  bool richardson = true;
+  int contact_level = 0;  // a step at or below this level resolves any contact (Verlet anticipation)
+};
+
+/// Per-thread scratch.
+struct IslandScratch {
+  Walls walls;  // a copy: every island is at its own time
+  ContactWorkspace contacts;
+  ExactWorkspace exact;
+  IslandState full, half;           // the two trials
+  std::vector<Vec3> origin;         // member positions at the start of the round [m]
+};
+
+/// Integer cost counters (sums of integers: the same for any order of islands).
+struct DoublingCounters {
+  std::uint64_t accepted = 0, rejected = 0, forced = 0, particle_steps = 0, force_evaluations = 0;
+  std::uint64_t richardson = 0;          // accepted steps that took the improved value
+  std::vector<std::uint64_t> histogram;  // accepted particle-steps per level - level_min
+  void add(const DoublingCounters& other);
+};
+
+/// Advances the island from tick `begin` to tick `end` of the finest step (level_min), where tick 0
+/// is at time t0 [s], starting at `level`; returns the level its next step would take.
+int advance_island(IslandState& island, const broadphase::CandidatePairs& candidates, const IslandPhysics& physics,
+                   const DoublingSettings& settings, IslandScratch& scratch, Real t0, std::int64_t begin,
+                   std::int64_t end, int level, DoublingCounters& counters);
+
+/// Largest level whose step keeps every approaching pair and wall of the island at least two steps
+/// away from touching (|v_rel| h + |a_rel| h^2 / 2 <= gap / 2), or `contact_level`, whichever is
+/// larger; never above `level`. Walls must be at the island's time.
+int anticipation_level(const IslandState& island, const broadphase::CandidatePairs& candidates, const Walls& walls,
+                       const Vec3& gravity, Real dt_base, int level, int contact_level);
+
+}  // namespace dem
