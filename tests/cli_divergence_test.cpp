@@ -1,13 +1,15 @@
 // The energy audit stops an unstable run: the seed slope with velocity Verlet at dt = 0.1 s
 // (omega0 dt = 2.24 > 2, beyond the Cundall-Strack limit, PHYSICS.md 2) gains energy from nowhere
 // and must end with exit code 3 and a diagnosis, not finish quietly with nonsense; the same scene at
-// its own dt passes the audit.
+// its own dt passes the audit. Every way out of a run that writes results is audited first.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <vector>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -15,18 +17,36 @@ namespace {
 
 namespace fs = std::filesystem;
 
-int run(const std::string& args, const fs::path& out) {
-  const std::string command = std::string(DEM_PROGRAM) + " run " + DEM_SOURCE_DIR + "/scenes/seed_slope.toml --quiet " +
-                              args + " --out " + out.string() + " 2>" + (out.string() + ".err");
+/// Runs `dem run` on a scene (path from the source root), stderr to `out`.err; returns the exit code.
+int run_scene(const std::string& scene, const std::string& args, const fs::path& out) {
+  const std::string command = std::string(DEM_PROGRAM) + " run " + DEM_SOURCE_DIR + "/" + scene + " --quiet " + args +
+                              " --out " + out.string() + " 2>" + (out.string() + ".err");
   const int status = std::system(command.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
+
+int run(const std::string& args, const fs::path& out) { return run_scene("scenes/seed_slope.toml", args, out); }
 
 std::string read(const fs::path& p) {
   std::ifstream in(p);
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+std::vector<fs::path> checkpoints_in(const fs::path& dir) {
+  std::vector<fs::path> found;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().extension() == ".bin") found.push_back(e.path());
+  return found;
+}
+
+/// A scratch folder for one test, removed by the test when it passes.
+fs::path scratch(const std::string& name) {
+  const fs::path base = fs::temp_directory_path() / ("dem_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(base);
+  fs::create_directories(base);
+  return base;
 }
 
 TEST(CliDivergence, VerletBeyondTheStabilityLimitStopsWithExitThree) {
@@ -48,6 +68,30 @@ TEST(CliDivergence, VerletBeyondTheStabilityLimitStopsWithExitThree) {
 
   EXPECT_EQ(run("", base / "stable"), 0) << read(base / "stable.err");
   fs::remove_all(base);
+}
+
+// With an output interval longer than the run no row falls due before the end: the final row, and
+// the settle workflow's stop on low kinetic energy (which writes settled.csv), must still be audited.
+TEST(CliDivergence, FinalRowAndSettleStopAreAudited) {
+  const fs::path base = scratch("final_audit");
+  const std::string unstable = "--set integrator.dt=0.1 --set output.interval=100 --set output.snapshot_interval=0";
+  EXPECT_EQ(run(unstable, base / "final"), 3);
+  const std::string err = read(base / "final.err");
+  EXPECT_NE(err.find("diverged at t = 8 s"), std::string::npos) << err;
+  EXPECT_NE(err.find("particle 0"), std::string::npos) << err;
+  EXPECT_NE(err.find("integrator.dt"), std::string::npos) << err;
+  EXPECT_NE(read(base / "final" / "summary.json").find("\"status\": \"diverged\""), std::string::npos);
+  // No audit passed after the start, so the start is the last good state.
+  EXPECT_NE(err.find("(t = 0 s)"), std::string::npos) << err;
+  EXPECT_TRUE(fs::exists(base / "final" / "checkpoint_0.bin"));
+  EXPECT_EQ(checkpoints_in(base / "final").size(), 1u);
+
+  EXPECT_EQ(run(unstable + " --set run.stop_kinetic_energy=1e9 --set run.stop_check_after=6 --set output.settled_file=settled.csv",
+                base / "settle"),
+            3);
+  EXPECT_NE(read(base / "settle.err").find("diverged at t = 6 s"), std::string::npos) << read(base / "settle.err");
+  EXPECT_FALSE(fs::exists(base / "settle" / "settled.csv")) << "a diverged state is not a settled bed";
+  if (!HasFailure()) fs::remove_all(base);
 }
 
 }  // namespace

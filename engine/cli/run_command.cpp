@@ -233,12 +233,10 @@ int run_command(const RunOptions& options) {
     rows.done_at(world.time());
     if (snapshots.enabled()) snapshots.done_at(world.time());
   }
-  // Writes what is due at the current sync time (everything when `final_row`); true if anything was.
+  // Writes what is due at the current sync time (everything when `final_row`).
   auto write_outputs = [&](bool final_row) {
     const Real t = world.time();
-    bool wrote = false;
     if (rows.due(t) || final_row) {
-      wrote = true;
       series.append(series_row(world));
       walls.append(wall_row(world));
       rows.done_at(t);
@@ -254,9 +252,7 @@ int run_command(const RunOptions& options) {
       }
       ++snapshot_count;
       snapshots.done_at(t);
-      wrote = true;
     }
-    return wrote;
   };
   if (!resuming) write_outputs(false);
 
@@ -271,44 +267,48 @@ int run_command(const RunOptions& options) {
   };
 
   ProgressBar progress(!options.quiet && isatty(STDERR_FILENO), world.time(), scene.run.until);
+  // The divergence guard: every sync time that writes results (a row or snapshot due, the end, the
+  // settle stop) is audited first, so no path writes a diverged state. A state that passes is the
+  // last good one, kept in memory and written as a checkpoint if the run later diverges; the state
+  // the run starts from (scene or checkpoint) is good by definition.
   std::string divergence;  // why the run diverged; empty while it has not
-  std::string last_good;   // checkpoint of the last audited row, written if the run diverges
+  std::string last_good = world.checkpoint_bytes(scene.physics_hash);
   Real last_good_time = world.time();
   std::string stop_reason = "end time reached";
-  Real last_written = world.time();
   while (world.time() < scene.run.until) {
     if (world.advance_sync_interval() != StepStatus::ok) {
       const World::Culprit c = world.fastest_particle();
       divergence = "non-finite positions or velocities (particle " + std::to_string(c.particle) + ")";
       break;
     }
-    if (write_outputs(false)) {
-      last_written = world.time();
+    const Real t = world.time();
+    // Translational only: a particle spinning about its contact normal (nothing resists that spin)
+    // does not move and must not keep a settled bed from being written.
+    const bool settled = scene.run.stop_kinetic_energy > 0 && t >= scene.run.stop_check_after &&
+                         world.energies().kinetic < scene.run.stop_kinetic_energy;
+    const bool last = settled || t >= scene.run.until;
+    const bool due = rows.due(t) || snapshots.due(t);
+    if (due || last) {
       divergence = audit(world);
       if (!divergence.empty()) break;
+      write_outputs(!due);  // the end writes everything, unless something was due then anyway
       last_good = world.checkpoint_bytes(scene.physics_hash);
-      last_good_time = world.time();
+      last_good_time = t;
     }
-    if (checkpoints.due(world.time())) {
-      const std::filesystem::path path = checkpoint_name(world.time());
+    if (settled) {
+      stop_reason = "kinetic energy below run.stop_kinetic_energy";
+      break;
+    }
+    if (checkpoints.due(t)) {
+      const std::filesystem::path path = checkpoint_name(t);
       world.save_checkpoint(path.string(), scene.physics_hash);
       if (!last_checkpoint.empty() && last_checkpoint != path) std::filesystem::remove(last_checkpoint);
       last_checkpoint = path;
-      checkpoints.done_at(world.time());
+      checkpoints.done_at(t);
     }
-    if (scene.run.stop_kinetic_energy > 0 && world.time() >= scene.run.stop_check_after) {
-      const Energies e = world.energies();
-      // Translational only: a particle spinning about its contact normal (nothing resists that spin)
-      // does not move and must not keep a settled bed from being written.
-      if (e.kinetic < scene.run.stop_kinetic_energy) {
-        stop_reason = "kinetic energy below run.stop_kinetic_energy";
-        break;
-      }
-    }
-    progress.update(world.time(), std::chrono::duration<double>(std::chrono::steady_clock::now() - start_wall).count());
+    progress.update(t, std::chrono::duration<double>(std::chrono::steady_clock::now() - start_wall).count());
   }
   progress.finish();
-  if (world.time() > last_written && divergence.empty()) write_outputs(true);
   const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_wall).count();
 
   if (!scene.output.settled_file.empty() && divergence.empty()) {
@@ -374,16 +374,13 @@ int run_command(const RunOptions& options) {
   }
 
   if (!divergence.empty()) {
-    std::string saved;
-    if (!last_good.empty()) {
-      const std::filesystem::path path = checkpoint_name(last_good_time);
-      write_file_atomically(path, last_good);
-      saved = " The last good state (t = " + std::to_string(last_good_time) + " s) is in " + path.string() + ".";
-    }
+    const std::filesystem::path good = checkpoint_name(last_good_time);
+    write_file_atomically(good, last_good);
     std::fprintf(stderr,
                  "dem: the run diverged at t = %.9g s: %s. The step is unstable: reduce integrator.dt "
-                 "(`dem check` prints the stability limit of each contact) or use integrator.method = \"exact\".%s\n",
-                 world.time(), divergence.c_str(), saved.c_str());
+                 "(`dem check` prints the stability limit of each contact) or use integrator.method = \"exact\". "
+                 "The last good state (t = %.9g s) is in %s.\n",
+                 world.time(), divergence.c_str(), last_good_time, good.string().c_str());
     return 3;
   }
   if (!options.quiet)
