@@ -94,4 +94,20 @@ TEST(CliDivergence, FinalRowAndSettleStopAreAudited) {
   if (!HasFailure()) fs::remove_all(base);
 }
 
+// A blow-up late in a run is judged against the energy in play since the last good audit, not
+// against everything dissipated since the start (tests/scenes/late_blowup.toml: 0.33 J from nowhere
+// at t = 1.001 s, after some 25 J were dissipated, when 0.07 J were in play).
+TEST(CliDivergence, LateBlowUpIsNotHiddenByEnergyDissipatedEarlier) {
+  const fs::path base = scratch("late");
+  EXPECT_EQ(run_scene("tests/scenes/late_blowup.toml", "", base / "late"), 3);
+  const std::string err = read(base / "late.err");
+  EXPECT_NE(err.find("diverged at t = 1.1 s: the energy grew"), std::string::npos) << err;
+  EXPECT_TRUE(err.find("particle 2") != std::string::npos || err.find("particle 3") != std::string::npos)
+      << "the message names a particle of the unstable pair: " << err;
+  EXPECT_NE(err.find("The last good state (t = 1 s)"), std::string::npos) << err;
+  // Before the blow-up the same scene is sound.
+  EXPECT_EQ(run_scene("tests/scenes/late_blowup.toml", "--until 1", base / "before"), 0) << read(base / "before.err");
+  if (!HasFailure()) fs::remove_all(base);
+}
+
 }  // namespace

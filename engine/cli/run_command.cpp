@@ -141,26 +141,82 @@ constexpr Real energy_growth_limit = 0.5;
 /// An overlap beyond this fraction of the smaller radius is not a contact the linear law describes.
 constexpr Real overlap_limit = 0.5;
 
-/// The audit at each output row: empty if sound, else why the run must stop.
-std::string audit(const World& world) {
-  char text[320];
-  const EnergyBalance b = world.energy_balance();
-  if (b.error > energy_growth_limit * b.scale) {
-    const World::Culprit c = world.fastest_particle();
-    std::snprintf(text, sizeof text,
-                  "the energy grew by %.3g J beyond the work put in (%.0f%% of the %.3g J in play; fastest "
-                  "particle %u at %.3g m/s)",
-                  b.error, 100 * b.error / b.scale, b.scale, c.particle, c.value);
-    return text;
+/// The divergence guard: audits a state before results are written and keeps the last state that
+/// passed (in memory, as checkpoint bytes) for when a later one does not.
+///
+/// Energy is audited per window, from the last good state to now: the balance error of
+/// World::energy_balance() may not grow by more than a fraction of the energy in play in that window.
+/// The whole-run balance alone is not enough: its scale holds everything dissipated and all wall work
+/// since the start, so late in a long run a real blow-up hides under it. The whole-run check stays
+/// beside the window's, for growth spread thinly over many short windows.
+class DivergenceGuard {
+ public:
+  /// The state a run starts from (scene or checkpoint) is good by definition.
+  DivergenceGuard(const World& world, std::uint64_t physics_hash) : physics_hash_(physics_hash) { accept(world); }
+
+  /// Empty if the state is sound, else why the run must stop.
+  std::string check(const World& world) const {
+    char text[400];
+    const Energies now = world.energies();
+    const EnergyBalance whole = world.energy_balance();
+    const Real dissipated = world.dissipated_energy(), wall_work = world.wall_work();
+    const Energies& e = good_.energies;
+    // In play in the window: what moved or was stored at its start, the potential energy released
+    // or taken up, and what the contacts dissipated and the walls did in it.
+    const Real in_play = e.kinetic + e.rotational + e.elastic + std::abs(now.potential - e.potential) +
+                         std::abs(dissipated - good_.dissipated) + std::abs(wall_work - good_.wall_work);
+    // Round-off floor: the balance holds potential energies measured from the origin and running
+    // totals that only grow; two balances differ by ~1e-16 of those sizes even with nothing in play.
+    const Real floor = 1e-12 * (std::abs(e.potential) + std::abs(now.potential) + std::abs(dissipated) + std::abs(wall_work));
+    const Real growth = whole.error - good_.error;
+    // Written as !(a <= b) so that a NaN fails.
+    if (!(growth <= energy_growth_limit * (in_play + floor))) {
+      const World::Culprit c = world.fastest_particle();
+      std::snprintf(text, sizeof text,
+                    "the energy grew by %.3g J since t = %.9g s beyond the work put in (%.0f%% of the %.3g J in play "
+                    "since then; fastest particle %u at %.3g m/s)",
+                    growth, good_.time, 100 * growth / (in_play + floor), in_play + floor, c.particle, c.value);
+      return text;
+    }
+    if (!(whole.error <= energy_growth_limit * whole.scale)) {
+      const World::Culprit c = world.fastest_particle();
+      std::snprintf(text, sizeof text,
+                    "the energy grew by %.3g J since the start beyond the work put in (%.0f%% of the %.3g J in play; "
+                    "fastest particle %u at %.3g m/s)",
+                    whole.error, 100 * whole.error / whole.scale, whole.scale, c.particle, c.value);
+      return text;
+    }
+    const World::Culprit o = world.deepest_overlap();
+    if (o.value > overlap_limit) {
+      std::snprintf(text, sizeof text, "particles %u and %u overlap by %.0f%% of the smaller radius (limit %.0f%%)",
+                    o.particle, o.partner, 100 * o.value, 100 * overlap_limit);
+      return text;
+    }
+    return "";
   }
-  const World::Culprit o = world.deepest_overlap();
-  if (o.value > overlap_limit) {
-    std::snprintf(text, sizeof text, "particles %u and %u overlap by %.0f%% of the smaller radius (limit %.0f%%)",
-                  o.particle, o.partner, 100 * o.value, 100 * overlap_limit);
-    return text;
+
+  /// The state passed the audit: it is the last good one, and the next window starts here.
+  void accept(const World& world) {
+    good_ = {world.time(), world.energy_balance().error, world.energies(), world.dissipated_energy(), world.wall_work()};
+    checkpoint_ = world.checkpoint_bytes(physics_hash_);
   }
-  return "";
-}
+
+  Real last_good_time() const { return good_.time; }
+  /// The bytes of a checkpoint of the last good state.
+  const std::string& last_good_checkpoint() const { return checkpoint_; }
+
+ private:
+  struct Mark {
+    Real time;          // [s]
+    Real error;         // balance error since the start [J]
+    Energies energies;  // [J]
+    Real dissipated;    // since the start [J]
+    Real wall_work;     // since the start [J]
+  };
+  std::uint64_t physics_hash_;
+  Mark good_{};
+  std::string checkpoint_;
+};
 
 class ProgressBar {
  public:
@@ -267,13 +323,10 @@ int run_command(const RunOptions& options) {
   };
 
   ProgressBar progress(!options.quiet && isatty(STDERR_FILENO), world.time(), scene.run.until);
-  // The divergence guard: every sync time that writes results (a row or snapshot due, the end, the
-  // settle stop) is audited first, so no path writes a diverged state. A state that passes is the
-  // last good one, kept in memory and written as a checkpoint if the run later diverges; the state
-  // the run starts from (scene or checkpoint) is good by definition.
+  // Every sync time that writes results (a row or snapshot due, the end, the settle stop) is audited
+  // first, so no path writes a diverged state.
+  DivergenceGuard guard(world, scene.physics_hash);
   std::string divergence;  // why the run diverged; empty while it has not
-  std::string last_good = world.checkpoint_bytes(scene.physics_hash);
-  Real last_good_time = world.time();
   std::string stop_reason = "end time reached";
   while (world.time() < scene.run.until) {
     if (world.advance_sync_interval() != StepStatus::ok) {
@@ -289,11 +342,10 @@ int run_command(const RunOptions& options) {
     const bool last = settled || t >= scene.run.until;
     const bool due = rows.due(t) || snapshots.due(t);
     if (due || last) {
-      divergence = audit(world);
+      divergence = guard.check(world);
       if (!divergence.empty()) break;
       write_outputs(!due);  // the end writes everything, unless something was due then anyway
-      last_good = world.checkpoint_bytes(scene.physics_hash);
-      last_good_time = t;
+      guard.accept(world);
     }
     if (settled) {
       stop_reason = "kinetic energy below run.stop_kinetic_energy";
@@ -374,13 +426,13 @@ int run_command(const RunOptions& options) {
   }
 
   if (!divergence.empty()) {
-    const std::filesystem::path good = checkpoint_name(last_good_time);
-    write_file_atomically(good, last_good);
+    const std::filesystem::path good = checkpoint_name(guard.last_good_time());
+    write_file_atomically(good, guard.last_good_checkpoint());
     std::fprintf(stderr,
                  "dem: the run diverged at t = %.9g s: %s. The step is unstable: reduce integrator.dt "
                  "(`dem check` prints the stability limit of each contact) or use integrator.method = \"exact\". "
                  "The last good state (t = %.9g s) is in %s.\n",
-                 world.time(), divergence.c_str(), last_good_time, good.string().c_str());
+                 world.time(), divergence.c_str(), guard.last_good_time(), good.string().c_str());
     return 3;
   }
   if (!options.quiet)
