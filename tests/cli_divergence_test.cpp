@@ -110,4 +110,24 @@ TEST(CliDivergence, LateBlowUpIsNotHiddenByEnergyDissipatedEarlier) {
   if (!HasFailure()) fs::remove_all(base);
 }
 
+// Periodic checkpoints written after the last good audit hold a state no audit has passed: when the
+// run diverges they are removed, and the one checkpoint left is that of the last good state.
+TEST(CliDivergence, DivergedRunLeavesOnlyTheLastGoodCheckpoint) {
+  const fs::path base = scratch("checkpoints");
+  // Rows every 0.1 s, checkpoints every 0.04 s: the blow-up at 1.001 s is found at 1.1 s, after
+  // checkpoints at 1.04 and 1.08 s.
+  EXPECT_EQ(run_scene("tests/scenes/late_blowup.toml", "--checkpoint-every 0.04", base / "late"), 3);
+  const std::string err = read(base / "late.err");
+  EXPECT_NE(err.find("The last good state (t = 1 s) is in " + (base / "late" / "checkpoint_1.bin").string()), std::string::npos)
+      << err;
+  const std::vector<fs::path> left = checkpoints_in(base / "late");
+  std::string names;
+  for (const fs::path& p : left) names += " " + p.filename().string();
+  ASSERT_EQ(left.size(), 1u) << "checkpoints left:" << names;
+  EXPECT_EQ(left[0].filename(), "checkpoint_1.bin");
+  EXPECT_EQ(run_scene("tests/scenes/late_blowup.toml", "--until 1 --resume " + left[0].string(), base / "resumed"), 0)
+      << read(base / "resumed.err");
+  if (!HasFailure()) fs::remove_all(base);
+}
+
 }  // namespace

@@ -426,7 +426,10 @@ int run_command(const RunOptions& options) {
   }
 
   if (!divergence.empty()) {
+    // The last good state's checkpoint replaces the periodic one: written after the last good audit,
+    // that one holds a state no audit passed; written before, it is older.
     const std::filesystem::path good = checkpoint_name(guard.last_good_time());
+    if (!last_checkpoint.empty() && last_checkpoint != good) std::filesystem::remove(last_checkpoint);
     write_file_atomically(good, guard.last_good_checkpoint());
     std::fprintf(stderr,
                  "dem: the run diverged at t = %.9g s: %s. The step is unstable: reduce integrator.dt "
