@@ -108,7 +108,7 @@ struct IntegratorConfig {
   Control control = Control::fixed;
   Real dt = 1e-5;         // fixed step [s]
   Real dt_base = 0;       // level-0 step for doubling [s]; 0: equal to dt
-  Real tolerance = 1e-4;  // doubling error tolerance [-]
+  Real tolerance = 1e-2;  // doubling error tolerance [-] (seed formula (3) per step)
   int level_min = -10;
   int level_max = 10;
   Real safety = 0.8;

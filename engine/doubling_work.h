@@ -18,6 +18,9 @@ struct IslandJob {
   int level = 0;  // the level of its next step, after the round
 };
 
+inline constexpr std::int32_t in_free_flight = -1;
+inline constexpr std::int32_t needs_job = -2;
+
 struct DoublingWork {
   explicit DoublingWork(const IslandScratch& exemplar) : scratch(exemplar) {}
 
@@ -29,9 +32,12 @@ struct DoublingWork {
   std::vector<std::uint32_t> local_index;  // per particle: its place in its island
   std::vector<ParticleIndex> link_a, link_b;         // contacts and anticipated pairs of the round
   std::vector<ParticleIndex> conflict_a, conflict_b;  // pairs of islands found to interact: redone together
-  std::vector<IslandJob> jobs;                        // per island
+  std::vector<IslandJob> jobs;                        // for islands not in free flight (kept for reuse)
+  std::size_t job_count = 0;                          // jobs in use this round
+  std::vector<std::int32_t> job_of;                   // per island: its job, or one of the two below
   std::vector<Real> excursion;                        // per particle: farthest from its round start [m]
   State next;                                         // the state at the end of the round
+  Walls round_walls;                                  // the walls at the start of the round
   tbb::enumerable_thread_specific<IslandScratch> scratch;
   tbb::enumerable_thread_specific<DoublingCounters> counters;
 };

@@ -168,7 +168,8 @@ int advance_island(IslandState& island, const broadphase::CandidatePairs& candid
   const Real finest = std::ldexp(settings.dt_base, settings.level_min);
   const int order = physics.method == Method::exact ? 1 : 2;
   const Real bulge_per_h2 = physics.method == Method::exact ? physics.gravity.norm() / 8 : 0;
-  counters.histogram.resize(settings.level_max - settings.level_min + 1, 0);
+  const std::size_t levels = settings.level_max - settings.level_min + 1;
+  if (counters.histogram.size() < levels) counters.histogram.resize(levels, 0);
   scratch.origin = island.state.position;
   island.excursion.assign(n, 0);
   std::int64_t tick = begin;

@@ -18,7 +18,10 @@ inline constexpr std::size_t default_grain = 256;
 /// Runs body(i) for i in [0, n). Bodies must write only to slots owned by i.
 template <class Body>
 void parallel_for(std::size_t n, const Body& body, std::size_t grain = default_grain) {
-  if (n == 0) return;
+  if (n <= grain) {  // one chunk anyway: skip the task machinery (small islands call this a lot)
+    for (std::size_t i = 0; i < n; ++i) body(i);
+    return;
+  }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) body(i);
   });
@@ -30,6 +33,11 @@ inline constexpr std::size_t sum_block_size = 1024;
 template <class T, class Value>
 T block_sum(std::size_t n, const Value& value, T zero = T{}) {
   const std::size_t block_count = (n + sum_block_size - 1) / sum_block_size;
+  if (block_count <= 1) {  // the same additions in the same order as the one block below
+    T s = zero;
+    for (std::size_t i = 0; i < n; ++i) s = s + value(i);
+    return zero + s;
+  }
   std::vector<T> partial(block_count, zero);
   parallel_for(
       block_count,

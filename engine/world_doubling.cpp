@@ -14,6 +14,8 @@
 // exact and accuracy kept). Islands are independent, so results do not depend on thread count.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 #include "engine/doubling_work.h"
 #include "engine/parallel.h"
@@ -26,6 +28,35 @@ std::int64_t ticks_of_level(int level, int level_min) { return std::int64_t{1} <
 
 Vec3 acceleration(const State& s, std::size_t p, const Vec3& gravity) {
   return s.inv_mass[p] == 0 ? Vec3(Vec3::Zero()) : Vec3(s.inv_mass[p] * s.force[p] + gravity);
+}
+
+/// A particle alone in its island, touching nothing, with no wall within twice its reach over h:
+/// free flight, for which both steppers are exact at any step, so the error control would only
+/// promote it; it takes the whole round in one step.
+bool flies_free(const State& s, std::size_t p, const Walls& walls, const std::vector<std::uint32_t>& wall_start,
+                const Vec3& gravity, Real h) {
+  if (wall_start[p + 1] != wall_start[p]) return false;
+  const Vec3 a = s.inv_mass[p] == 0 ? Vec3(Vec3::Zero()) : gravity;
+  std::uint32_t features[6];
+  for (std::size_t w = 0; w < walls.count(); ++w) {
+    const Real closing = (s.velocity[p] - walls.velocity_at(w, s.position[p])).norm() * h + 0.5 * a.norm() * h * h;
+    if (walls.touching_features(w, s.position[p], s.radius[p] + 2 * closing, features) > 0) return false;
+  }
+  return true;
+}
+
+/// Velocity Verlet with no contact force (exact under uniform gravity), from `from` into `to`.
+void free_flight(const State& from, std::size_t p, const Vec3& gravity, int dimension, Real h, State& to) {
+  Vec3 v = from.velocity[p];
+  const Vec3 g = from.inv_mass[p] == 0 ? Vec3(Vec3::Zero()) : gravity;
+  v += 0.5 * h * g;
+  to.position[p] = from.position[p] + h * v;
+  v += 0.5 * h * g;
+  if (dimension == 2) v.z() = 0;
+  to.velocity[p] = v;
+  to.angular_velocity[p] = from.angular_velocity[p];
+  to.force[p].setZero();
+  to.torque[p].setZero();
 }
 
 }  // namespace
@@ -54,6 +85,7 @@ void World::init_doubling() {
     d.contact_level = static_cast<int>(std::clamp(steps, Real(c.level_min), Real(c.level_max)));
   }
   d.skin_cap = std::max(skin_, 2 * r_max);
+  d.round_walls = walls_;
   d.next = state_;
   d.excursion.assign(state_.size(), 0);
 }
@@ -213,11 +245,40 @@ void World::run_islands(const std::vector<std::uint32_t>& which, std::int64_t ti
   settings.contact_level = d.contact_level;
   const Real t0 = scheduler_.time(Clock{clock_.interval, 0});
   const std::int64_t end = tick + ticks_of_level(level, settings.level_min);
+  const Real h = scheduler_.step_of_level(level);
+  d.round_walls.set_time(t0 + static_cast<Real>(tick) * scheduler_.step_of_level(settings.level_min));
+  const Real bulge = 0.125 * gravity_.norm() * h * h;  // farthest a parabola strays from its chord
+  // Particles in free flight take the round in one step; the other islands get a job.
+  parallel_for(which.size(), [&](std::size_t w) {
+    const std::uint32_t k = which[w];
+    d.job_of[k] = needs_job;
+    if (d.islands.start[k + 1] - d.islands.start[k] != 1) return;
+    const ParticleIndex a = d.islands.member[d.islands.start[k]];
+    if (!flies_free(state_, a, d.round_walls, adjacency_.wall_start, gravity_, h)) return;
+    free_flight(state_, a, gravity_, config_.model.dimension, h, d.next);
+    d.next.level[a] = static_cast<std::int8_t>(level);
+    d.excursion[a] = (d.next.position[a] - state_.position[a]).norm() + bulge;
+    d.job_of[k] = in_free_flight;
+    DoublingCounters& counters = d.counters.local();
+    counters.particle_steps += 1;
+    counters.force_evaluations += 1;
+    counters.accepted += 1;
+    const std::size_t levels = level - settings.level_min + 1;
+    if (counters.histogram.size() < levels) counters.histogram.resize(levels, 0);
+    ++counters.histogram[level - settings.level_min];
+  });
+  std::vector<std::uint32_t> busy;
+  for (std::uint32_t k : which)
+    if (d.job_of[k] == needs_job) {
+      d.job_of[k] = static_cast<std::int32_t>(d.job_count++);
+      busy.push_back(k);
+    }
+  if (d.jobs.size() < d.job_count) d.jobs.resize(d.job_count);
   parallel_for(
-      which.size(),
+      busy.size(),
       [&](std::size_t w) {
-        const std::uint32_t k = which[w];
-        IslandJob& job = d.jobs[k];
+        const std::uint32_t k = busy[w];
+        IslandJob& job = d.jobs[d.job_of[k]];
         // The exact stepper keeps no contact history: it finds its contacts from the positions.
         gather_island(d.islands, d.local_index, k, state_, candidates_, pairs_, wall_contacts_, adjacency_.wall_start,
                       c.method == Method::verlet, job);
@@ -265,13 +326,15 @@ bool World::find_conflicts() {
 
 void World::run_round(std::int64_t tick, int level) {
   DoublingWork& d = *doubling_;
+  if (std::getenv("DEM_DEBUG_ROUNDS")) std::fprintf(stderr, "round tick %ld level %d skin %g\n", (long)tick, level, candidate_skin_);
   const Real h = scheduler_.step_of_level(level);
   d.conflict_a.clear();
   d.conflict_b.clear();
   find_round_islands(h);
   std::vector<std::uint32_t> which(d.islands.count());
   for (std::size_t k = 0; k < which.size(); ++k) which[k] = static_cast<std::uint32_t>(k);
-  d.jobs.resize(d.islands.count());
+  d.job_of.assign(d.islands.count(), needs_job);
+  d.job_count = 0;
   for (;;) {
     run_islands(which, tick, level);
     // A particle beyond half the skin from where the candidates were built may have met a pair
@@ -292,20 +355,20 @@ void World::run_round(std::int64_t tick, int level) {
       break;
     }
     // Redo the islands that changed; the others keep their result.
-    Islands before = d.islands;
-    std::vector<IslandJob> old_jobs = std::move(d.jobs);
+    const Islands before = d.islands;
+    const std::vector<std::int32_t> job_before = d.job_of;
     find_round_islands(h);
-    d.jobs.clear();
-    d.jobs.resize(d.islands.count());
+    d.job_of.assign(d.islands.count(), needs_job);
     which.clear();
     for (std::uint32_t k = 0; k < d.islands.count(); ++k) {
       const ParticleIndex first = d.islands.member[d.islands.start[k]];
       const std::uint32_t old = before.island_of[first];
       const bool same = !outran && before.start[old + 1] - before.start[old] == d.islands.start[k + 1] - d.islands.start[k];
-      if (same) d.jobs[k] = std::move(old_jobs[old]);
+      if (same) d.job_of[k] = job_before[old];
       else which.push_back(k);
     }
   }
+  if (std::getenv("DEM_DEBUG_ROUNDS")) std::fprintf(stderr, "  islands %zu\n", d.islands.count());
   finish_round();
 }
 
@@ -314,7 +377,9 @@ void World::finish_round() {
   const std::size_t n = state_.size();
   const std::size_t islands = d.islands.count();
   // Energy books of the islands, summed in island order.
-  for (const IslandJob& job : d.jobs) {
+  for (std::size_t k = 0; k < islands; ++k) {
+    if (d.job_of[k] < 0) continue;  // free flight
+    const IslandJob& job = d.jobs[d.job_of[k]];
     ended_dissipation_ += job.island.ended_dissipation;
     exact_dissipated_ += job.island.exact_dissipated;
     wall_work_ += job.island.wall_work;
@@ -347,7 +412,8 @@ void World::finish_round() {
   parallel_for(
       islands,
       [&](std::size_t k) {
-        const IslandState& is = d.jobs[k].island;
+        if (d.job_of[k] < 0) return;  // free flight: no contacts
+        const IslandState& is = d.jobs[d.job_of[k]].island;
         const ParticleIndex* member = d.islands.member.data() + d.islands.start[k];
         for (std::size_t q = 0; q < is.state.size(); ++q) {
           pair_count[member[q]] = is.pairs.row_start[q + 1] - is.pairs.row_start[q];
@@ -364,7 +430,8 @@ void World::finish_round() {
   parallel_for(
       islands,
       [&](std::size_t k) {
-        const IslandState& is = d.jobs[k].island;
+        if (d.job_of[k] < 0) return;
+        const IslandState& is = d.jobs[d.job_of[k]].island;
         const ParticleIndex* member = d.islands.member.data() + d.islands.start[k];
         const PairContacts& cp = is.pairs;
         const WallContacts& cw = is.walls;
