@@ -14,8 +14,6 @@
 // exact and accuracy kept). Islands are independent, so results do not depend on thread count.
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 
 #include "engine/doubling_work.h"
 #include "engine/parallel.h"
@@ -326,7 +324,6 @@ bool World::find_conflicts() {
 
 void World::run_round(std::int64_t tick, int level) {
   DoublingWork& d = *doubling_;
-  if (std::getenv("DEM_DEBUG_ROUNDS")) std::fprintf(stderr, "round tick %ld level %d skin %g\n", (long)tick, level, candidate_skin_);
   const Real h = scheduler_.step_of_level(level);
   d.conflict_a.clear();
   d.conflict_b.clear();
@@ -368,7 +365,6 @@ void World::run_round(std::int64_t tick, int level) {
       else which.push_back(k);
     }
   }
-  if (std::getenv("DEM_DEBUG_ROUNDS")) std::fprintf(stderr, "  islands %zu\n", d.islands.count());
   finish_round();
 }
 
