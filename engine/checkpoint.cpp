@@ -66,7 +66,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 3;
+constexpr std::uint32_t checkpoint_version = 4;
 
 class ByteWriter {
  public:
@@ -164,8 +164,9 @@ std::string World::checkpoint_bytes(std::uint64_t scene_hash) const {
   w.put(clock_.tick);
   for (std::uint64_t v : {counters_.sync_intervals, counters_.accepted_steps, counters_.rejected_steps,
                           counters_.forced_steps, counters_.particle_steps, counters_.force_evaluations,
-                          counters_.pair_rebuilds})
+                          counters_.pair_rebuilds, counters_.richardson_steps, counters_.round_redos})
     w.put(v);
+  w.put(counters_.level_histogram);
   w.put(ended_dissipation_);
   w.put(exact_dissipated_);
   w.put(candidate_skin_);
@@ -202,8 +203,9 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   RunCounters counters;
   for (std::uint64_t* v : {&counters.sync_intervals, &counters.accepted_steps, &counters.rejected_steps,
                            &counters.forced_steps, &counters.particle_steps, &counters.force_evaluations,
-                           &counters.pair_rebuilds})
+                           &counters.pair_rebuilds, &counters.richardson_steps, &counters.round_redos})
     *v = r.get<std::uint64_t>();
+  r.get(counters.level_histogram);
   const Real ended = r.get<Real>();
   const Real exact_dissipated = r.get<Real>();
   const Real candidate_skin = r.get<Real>();

@@ -231,7 +231,8 @@ std::vector<std::string> series_columns() {
   return {"time",           "kinetic_energy", "rotational_energy", "potential_energy", "elastic_energy",
           "dissipated_energy", "momentum_x",  "momentum_y",        "momentum_z",       "contacts",
           "wall_contacts",  "sync_intervals", "accepted_steps",    "rejected_steps",   "forced_steps",
-          "particle_steps", "force_evaluations", "pair_rebuilds"};
+          "particle_steps", "force_evaluations", "pair_rebuilds",  "round_redos",      "finest_level",
+          "coarsest_level"};
 }
 
 std::vector<std::string> wall_columns(const std::vector<std::string>& wall_names) {

@@ -510,10 +510,12 @@ void read_particles(TableReader& top, Scene& scene, const std::string& base_dir)
   }
 }
 
-void read_integrator(TableReader& top, Scene& scene) {
+/// Returns whether the scene sets level_max.
+bool read_integrator(TableReader& top, Scene& scene) {
   IntegratorConfig& c = scene.world.integrator;
   const toml::table* t = top.table("integrator");
   if (!t) top.fail("integrator", "an [integrator] table with at least dt [s] is required");
+  const bool level_max_given = t->contains("level_max");
   TableReader r(*t, "integrator", top.file());
   c.method = r.choice("method", {"verlet", "exact"}, 0) == 0 ? Method::verlet : Method::exact;
   c.control = r.choice("control", {"fixed", "doubling"}, 0) == 0 ? Control::fixed : Control::doubling;
@@ -536,6 +538,7 @@ void read_integrator(TableReader& top, Scene& scene) {
           contact.rolling_static_friction > 0)
         r.fail("method", "method = \"exact\" handles frictionless contacts so far: this scene has friction or "
                          "rolling resistance; use method = \"verlet\"");
+  return level_max_given;
 }
 
 void read_run_and_output(TableReader& top, Scene& scene) {
@@ -670,9 +673,19 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   read_contacts(top, scene);
   read_walls(top, scene);
   read_particles(top, scene, base_dir);
-  read_integrator(top, scene);
+  const bool level_max_given = read_integrator(top, scene);
   read_run_and_output(top, scene);
   top.finish();
+  // Outputs happen at sync times, so by default a doubling run's longest step (the sync interval)
+  // is at most the output interval: `--set integrator.control=doubling` keeps a scene's rows.
+  IntegratorConfig& integrator = scene.world.integrator;
+  std::string derived;
+  if (integrator.control == Control::doubling && !level_max_given) {
+    const Real dt_base = integrator.dt_base > 0 ? integrator.dt_base : integrator.dt;
+    const Real steps = std::floor(std::log2(scene.output.interval / dt_base) + 1e-9);
+    integrator.level_max = static_cast<int>(std::clamp(steps, Real(integrator.level_min), Real(10)));
+    derived = "\nderived level_max = " + std::to_string(integrator.level_max);
+  }
   if (scene.world.particles.empty())
     top.fail("particles", "the scene has no particles: add [[particles]], [[particle_files]] or [[generators]]");
   // The physics hash ignores how long the run lasts and what it writes, so a run can be resumed
@@ -681,7 +694,7 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   physics.erase("run");
   physics.erase("output");
   std::ostringstream resolved;
-  resolved << physics;
+  resolved << physics << derived;  // a level_max derived from the output interval is physics too
   scene.physics_hash = fnv1a(resolved.str());
   check_initial_state(scene);
   return scene;

@@ -161,6 +161,8 @@ StepStatus World::advance_sync_interval() {
   counters_.sync_intervals += 1;
   counters_.particle_steps += n;
   counters_.accepted_steps += n;
+  counters_.level_histogram.resize(1);  // everyone at level 0
+  counters_.level_histogram[0] += n;
   return finite ? StepStatus::ok : StepStatus::non_finite;
 }
 

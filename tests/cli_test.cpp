@@ -603,7 +603,8 @@ const std::vector<std::string> expected_series_columns = {
     "time",           "kinetic_energy", "rotational_energy", "potential_energy", "elastic_energy",
     "dissipated_energy", "momentum_x",  "momentum_y",        "momentum_z",       "contacts",
     "wall_contacts",  "sync_intervals", "accepted_steps",    "rejected_steps",   "forced_steps",
-    "particle_steps", "force_evaluations", "pair_rebuilds"};  // engine/output.cpp series_columns()
+    "particle_steps", "force_evaluations", "pair_rebuilds",
+    "round_redos", "finest_level", "coarsest_level"};  // engine/output.cpp series_columns()
 
 TEST(Outputs, FilesHaveTheDocumentedShape) {
   const TempDir tmp;

@@ -461,7 +461,8 @@ TEST(SeriesColumns, MatchTheDesignList) {
       "time",          "kinetic_energy", "rotational_energy", "potential_energy", "elastic_energy",
       "dissipated_energy", "momentum_x",  "momentum_y",       "momentum_z",       "contacts",
       "wall_contacts", "sync_intervals", "accepted_steps",    "rejected_steps",   "forced_steps",
-      "particle_steps", "force_evaluations", "pair_rebuilds"};
+      "particle_steps", "force_evaluations", "pair_rebuilds",
+    "round_redos", "finest_level", "coarsest_level"};
   EXPECT_EQ(series_columns(), expected);
   const std::vector<std::string> walls = {"time",     "floor_fx", "floor_fy", "floor_fz", "floor_tx",
                                           "floor_ty", "floor_tz", "drum_fx",  "drum_fy",  "drum_fz",

@@ -48,8 +48,21 @@ int check_command(const std::string& path, const std::vector<std::string>& overr
                                       : "",
               w.walls.empty() ? "" : ", walls");
   const bool exact = w.integrator.method == Method::exact;
-  std::printf("  integrator: %s, fixed dt = %g s, until %g s\n", exact ? "exact" : "verlet", w.integrator.dt,
-              scene.run.until);
+  const IntegratorConfig& ic = w.integrator;
+  const bool doubling = ic.control == Control::doubling;
+  const Real dt_base = ic.dt_base > 0 ? ic.dt_base : ic.dt;
+  // The step the stability check applies to: the only step (fixed), or the finest one (doubling).
+  const Real checked_step = doubling ? std::ldexp(dt_base, ic.level_min) : ic.dt;
+  if (doubling) {
+    std::printf("  integrator: %s, step doubling with tolerance %g, until %g s\n", exact ? "exact" : "verlet",
+                ic.tolerance, scene.run.until);
+    std::printf("    levels %d .. %d: steps from %.4g s to %.4g s (dt_base %g s), sync interval %.4g s\n",
+                ic.level_min, ic.level_max, checked_step, std::ldexp(dt_base, ic.level_max), dt_base,
+                std::ldexp(dt_base, ic.level_max));
+  } else {
+    std::printf("  integrator: %s, fixed dt = %g s, until %g s\n", exact ? "exact" : "verlet", ic.dt,
+                scene.run.until);
+  }
 
   bool unstable = false;
   auto report = [&](const std::string& label, std::uint16_t pair, const EffectiveMasses& em) {
@@ -68,9 +81,13 @@ int check_command(const std::string& path, const std::vector<std::string>& overr
       std::printf("    %-10s: contact time %.4g s, restitution %.5g\n", separation_name(s),
                   dimensionless_contact_time(zeta, s) / omega0, restitution_from_damping_ratio(zeta, s));
     // The exact stepper has no stability limit for one contact (PHYSICS.md 2); Verlet has.
-    if (!exact && w.integrator.dt > limit) {
+    if (!exact && checked_step > limit) {
       unstable = true;
-      std::printf("    WARNING: dt = %g s exceeds the stability limit %.4g s of this contact\n", w.integrator.dt, limit);
+      if (doubling)
+        std::printf("    WARNING: the finest step %g s (level_min %d) exceeds the stability limit %.4g s of this "
+                    "contact: lower integrator.level_min\n", checked_step, ic.level_min, limit);
+      else
+        std::printf("    WARNING: dt = %g s exceeds the stability limit %.4g s of this contact\n", ic.dt, limit);
     }
   };
   const std::size_t n = materials.material_count();

@@ -2,6 +2,7 @@
 // outputs of DESIGN.md (series.csv, walls.csv, summary.json, VTK snapshots with a .pvd index).
 // Outputs never shorten a step: a row is written at the first sync time at or after each multiple
 // of output.interval, and the run ends at the first sync time at or after `until`.
+#include <algorithm>
 #include "engine/cli/commands.h"
 #include "engine/cli/version.h"
 
@@ -20,6 +21,16 @@
 
 namespace dem::cli {
 namespace {
+
+int finest_level(const World& world) {
+  const auto& level = world.state().level;
+  return level.empty() ? 0 : *std::min_element(level.begin(), level.end());
+}
+
+int coarsest_level(const World& world) {
+  const auto& level = world.state().level;
+  return level.empty() ? 0 : *std::max_element(level.begin(), level.end());
+}
 
 std::vector<double> series_row(const World& world) {
   const Energies e = world.energies();
@@ -42,7 +53,10 @@ std::vector<double> series_row(const World& world) {
           static_cast<double>(c.forced_steps),
           static_cast<double>(c.particle_steps),
           static_cast<double>(c.force_evaluations),
-          static_cast<double>(c.pair_rebuilds)};
+          static_cast<double>(c.pair_rebuilds),
+          static_cast<double>(c.round_redos),
+          static_cast<double>(finest_level(world)),
+          static_cast<double>(coarsest_level(world))};
 }
 
 std::vector<double> wall_row(const World& world) {
@@ -387,6 +401,9 @@ int run_command(const RunOptions& options) {
       .add("method", scene.world.integrator.method == Method::verlet ? "verlet" : "exact")
       .add("control", scene.world.integrator.control == Control::fixed ? "fixed" : "doubling")
       .add("dt", scene.world.integrator.dt)
+      .add("tolerance", scene.world.integrator.tolerance)
+      .add("level_min", scene.world.integrator.level_min)
+      .add("level_max", scene.world.integrator.level_max)
       .add("until", scene.run.until)
       .add("output_interval", interval)
       .add("skin", world.skin());
@@ -397,7 +414,18 @@ int run_command(const RunOptions& options) {
       .add("forced_steps", c.forced_steps)
       .add("particle_steps", c.particle_steps)
       .add("force_evaluations", c.force_evaluations)
-      .add("pair_rebuilds", c.pair_rebuilds);
+      .add("pair_rebuilds", c.pair_rebuilds)
+      .add("round_redos", c.round_redos)
+      .add("richardson_steps", c.richardson_steps);
+  // Accepted particle-steps per level ("level": count), levels that were used only.
+  JsonObject histogram;
+  for (std::size_t k = 0; k < c.level_histogram.size(); ++k)
+    if (c.level_histogram[k] > 0)
+      histogram.add(std::to_string(static_cast<int>(k) + (scene.world.integrator.control == Control::fixed
+                                                              ? 0
+                                                              : scene.world.integrator.level_min)),
+                    c.level_histogram[k]);
+  counters.add("level_histogram", histogram);
   JsonObject provenance;
   std::vector<double> seeds(scene.seeds.begin(), scene.seeds.end());
   provenance.add("version", DEM_VERSION)
