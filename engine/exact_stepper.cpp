@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "engine/contact_law.h"
 #include "engine/parallel.h"
 
 namespace dem {
 namespace {
+
+constexpr Real never = std::numeric_limits<Real>::infinity();
 
 Vec3 gravity_of(const State& s, ParticleIndex p, const Vec3& g) { return s.inv_mass[p] > 0 ? g : Vec3(Vec3::Zero()); }
 
@@ -19,47 +22,290 @@ void free_flight(State& s, ParticleIndex p, const Vec3& g, Real t) {
   s.velocity[p] += t * gp;
 }
 
-/// Energy of the normal coordinate: relative kinetic + spring (while pushing) - work of the forcing.
-Real normal_energy(const ExactInteraction& k, Separation sep, Real a, const NormalState& n) {
-  const Real spring = pushes(k.oscillator, sep, n) ? 0.5 * k.stiffness * n.delta * n.delta : 0.0;
-  return 0.5 * k.effective_mass * n.rate * n.rate + spring - k.effective_mass * a * n.delta;
+// ---- Events on a free path --------------------------------------------------------------------
+
+/// Real roots of c0 + c1 t + c2 t^2 in ascending order (cancellation-free formula); returns the count.
+int quadratic_roots(Real c0, Real c1, Real c2, Real roots[2]) {
+  if (c2 == 0) {
+    if (c1 == 0) return 0;
+    roots[0] = -c0 / c1;
+    return 1;
+  }
+  const Real disc = c1 * c1 - 4 * c2 * c0;
+  if (disc < 0) return 0;
+  const Real q = -0.5 * (c1 + std::copysign(std::sqrt(disc), c1));
+  if (q == 0) {  // c0 = c1 = 0: a double root at 0
+    roots[0] = 0;
+    return 1;
+  }
+  roots[0] = std::min(c0 / q, q / c2);
+  roots[1] = std::max(c0 / q, q / c2);
+  return 2;
 }
 
-/// P_k(tau) for a particle pair: the centre of mass in free flight, the distance by the exact normal
-/// flow, the direction turned by the tangential drift.
+/// Smallest t in [0, limit] at which c0 + c1 t + c2 t^2 rises through zero, or never.
+Real first_rising_root(Real c0, Real c1, Real c2, Real limit) {
+  Real roots[2];
+  const int count = quadratic_roots(c0, c1, c2, roots);
+  for (int k = 0; k < count; ++k)
+    if (roots[k] >= 0 && roots[k] <= limit && c1 + 2 * c2 * roots[k] > 0) return roots[k];
+  return never;
+}
+
+/// The zero of f in [lo, hi], where f is monotone, f(lo) = f_lo and f(hi) has the other sign (or is 0):
+/// Newton, bisecting whenever a Newton step would leave the bracket.
+template <class F, class DF>
+Real monotone_root(const F& f, const DF& df, Real lo, Real hi, Real f_lo) {
+  if (f_lo == 0) return lo;
+  Real t = lo + 0.5 * (hi - lo);
+  for (int k = 0; k < 100; ++k) {
+    const Real ft = f(t);
+    if (ft == 0) return t;
+    if ((ft > 0) == (f_lo > 0)) lo = t;
+    else hi = t;
+    Real next = t - ft / df(t);
+    if (!(next > lo && next < hi)) next = lo + 0.5 * (hi - lo);
+    if (next == t) return t;
+    t = next;
+  }
+  return t;
+}
+
+/// First time in [0, limit] at which a free path p(t) = r + u t + g t^2 / 2 enters contact, or never:
+/// the overlap is sigma (|p| - reach) (sigma = -1: a pair, in contact within reach; +1: the inside of a
+/// cylinder, in contact beyond it), and the entry is where it rises through zero (at t = 0 too, for a
+/// state touching and moving in). This is the true 3-D path, so a near miss stays a miss at any step.
+/// |p|^2 is a quartic in t (a quadratic when g = 0); [0, limit] is cut where its rate has extrema (roots
+/// of a quadratic) and where the rate vanishes, so that the overlap is monotone on each piece.
+Real first_entry(const Vec3& r, const Vec3& u, const Vec3& g, Real reach, Real sigma, Real limit) {
+  const auto at = [&](Real t) { return Vec3(r + t * (u + (0.5 * t) * g)); };
+  const auto velocity = [&](Real t) { return Vec3(u + t * g); };
+  // The overlap as the flows compute it (so a state touching at t = 0 is judged the same way), and the
+  // rate and rate change of sigma |p|^2 / 2, which has the same sign and monotone pieces.
+  const auto overlap = [&](Real t) { return sigma * (at(t).norm() - reach); };
+  const auto overlap_rate = [&](Real t) { return sigma * at(t).dot(velocity(t)) / at(t).norm(); };
+  const auto rate = [&](Real t) { return sigma * at(t).dot(velocity(t)); };
+  const auto rate_change = [&](Real t) { return sigma * (velocity(t).squaredNorm() + at(t).dot(g)); };
+  Real turns[2], ends[3];
+  int end_count = 0;
+  const int turn_count = quadratic_roots(u.squaredNorm() + r.dot(g), 3 * u.dot(g), 1.5 * g.squaredNorm(), turns);
+  for (int k = 0; k < turn_count; ++k)
+    if (turns[k] > 0 && turns[k] < limit) ends[end_count++] = turns[k];
+  ends[end_count++] = limit;
+  Real knots[7];
+  int count = 0;
+  knots[count++] = 0;
+  Real a = 0, rate_a = rate(0);
+  for (int k = 0; k < end_count; ++k) {
+    const Real b = ends[k], rate_b = rate(b);
+    if ((rate_a < 0 && rate_b > 0) || (rate_a > 0 && rate_b < 0))
+      knots[count++] = monotone_root(rate, rate_change, a, b, rate_a);
+    knots[count++] = b;
+    a = b;
+    rate_a = rate_b;
+  }
+  Real overlap_a = overlap(0);
+  for (int k = 0; k + 1 < count; ++k) {
+    const Real overlap_b = overlap(knots[k + 1]);
+    if (overlap_a <= 0 && overlap_b > 0) return monotone_root(overlap, overlap_rate, knots[k], knots[k + 1], overlap_a);
+    overlap_a = overlap_b;
+  }
+  return never;
+}
+
+// ---- The flow of one contact in polar form ------------------------------------------------------
+
+/// Motion of a particle relative to a centre (a pair: the partner, in the relative coordinate) or to an
+/// axis (the inside of a cylinder: components across the axis), in a frame where the centre or axis
+/// is at rest; the contact force acts along the radial direction e = r / |r|.
+struct Radial {
+  Vec3 r;      // position from the centre [m]
+  Vec3 u;      // velocity [m/s]
+  Vec3 g;      // acceleration without the contact (gravity acting on one side only) [m/s^2]
+  Real reach;  // contact distance: r_i + r_j, or R_cylinder - r [m]
+  Real sigma;  // overlap delta = sigma (|r| - reach): -1 for a pair, +1 inside a cylinder
+};
+
+/// The same state as radial direction, velocity across it and the normal coordinate (overlap and its
+/// rate); the contact normal, into the particle, is -sigma e.
+struct Polar {
+  Vec3 e;
+  Vec3 u_t;            // [m/s]
+  NormalState normal;  // [m], [m/s]
+};
+
+Real radius_of(const Radial& x, const NormalState& n) { return x.reach + x.sigma * n.delta; }
+
+Polar polar_of(const Radial& x) {
+  const Real rho = x.r.norm();
+  const Vec3 e = rho > 0 ? Vec3(x.r / rho) : Vec3(Vec3::UnitX());
+  const Real u_e = x.u.dot(e);
+  return {e, x.u - u_e * e, {x.sigma * (rho - x.reach), x.sigma * u_e}};
+}
+
+void set_cartesian(Radial& x, const Polar& p) {
+  x.r = radius_of(x, p.normal) * p.e;
+  x.u = (x.sigma * p.normal.rate) * p.e + p.u_t;
+}
+
+/// Energy of the normal coordinate per unit m*: relative kinetic + spring (if counted) - work of the forcing.
+Real normal_energy(const NormalOscillator& o, Real a, const NormalState& n, bool spring) {
+  return 0.5 * n.rate * n.rate + (spring ? 0.5 * o.omega0 * o.omega0 * n.delta * n.delta : 0.0) - a * n.delta;
+}
+
+struct Stretch {
+  NormalState end;
+  Real time;  // [s]
+  bool released;
+};
+
+/// The exact normal flow from a pushing state (or one put on the onset condition) over at most `limit`
+/// under constant forcing a, cut at the first release. With the table (`whole_step`, a stretch over the
+/// whole flow from a pushing state), advance_normal decides whether the contact releases within the
+/// step at all (it may skip the search, PHYSICS.md 3.2); the release time itself is searched here.
+Stretch push(const NormalOscillator& o, Separation sep, Real a, const NormalState& s, Real limit,
+             const PropagatorCoefficients* whole_step) {
+  const auto at = [&](const PropagatorCoefficients& c) {
+    return NormalState{c.phi11 * s.delta + c.phi12 * s.rate + c.gamma1 * a,
+                       c.phi21 * s.delta + c.phi22 * s.rate + c.gamma2 * a};
+  };
+  // A contact that does not push at the end of the step has certainly released within it: no need to
+  // ask advance_normal.
+  if (whole_step && pushes(o, sep, at(*whole_step))) {
+    int events = 0;
+    const NormalState end = advance_normal(o, sep, a, s, limit, &events, whole_step);
+    if (events == 0) return {end, limit, false};
+  }
+  const Real release = sep == Separation::force_zero ? force_zero_time(o.omega0, o.beta, s.delta, s.rate, a)
+                                                     : overlap_zero_time(o.omega0, o.beta, s.delta, s.rate, a);
+  const Real t = std::min(release, limit);
+  return {at(propagator(o.omega0, o.beta, t)), t, release < limit};
+}
+
+/// One pushing stretch of a contact in polar form, up to its release or `limit`; p is advanced to its
+/// end. The radius follows the exact normal flow with the centrifugal term folded into its constant
+/// forcing; the velocity across keeps the angular momentum l = rho |u_t| and turns e by
+/// l t / (rho0 rho1) (exact when rho is linear in t, second order otherwise). The centrifugal forcing is
+/// the discrete gradient sigma l^2 (rho0 + rho1) / (2 rho0^2 rho1^2) of the rotational energy
+/// l^2 / (2 rho^2) between the ends, so that energy and angular momentum are both kept to round-off
+/// when undamped. Gravity on one side only (an immovable partner, a wall) pushes along the mean of the
+/// end directions and kicks u_t by halves before and after the turn, so the stretch stays symmetric in
+/// time. The forcing depends on the end, so it is found by fixed-point iteration; it contracts by about
+/// (u_t t / rho)^2.
+Stretch contact_stretch(ExactInteraction& k, Separation sep, const Radial& x, Polar& p, Real limit,
+                        const PropagatorCoefficients* whole_step) {
+  const NormalOscillator& o = k.oscillator;
+  const Real rho0 = radius_of(x, p.normal);
+  const Vec3 e0 = p.e, g_across = x.g - x.g.dot(e0) * e0;
+  // The turn over a stretch s: the velocity across after the first half kick, and the end direction.
+  struct Turn {
+    Vec3 u_t, e;
+  };
+  const auto turn = [&](const Stretch& s) {
+    Turn t{p.u_t + (0.5 * s.time) * g_across, e0};
+    const Real speed = t.u_t.norm(), rho1 = radius_of(x, s.end);
+    if (speed > 0 && rho0 > 0 && rho1 > 0) {
+      const Vec3 across = t.u_t / speed;
+      const Real angle = speed * s.time / rho1;
+      Real c, sn;
+      if (angle < 1e-2) {  // the usual turn within a step: the series is exact to round-off and cheaper
+        const Real a2 = angle * angle;
+        c = 1 - a2 / 2 * (1 - a2 / 12 * (1 - a2 / 30));
+        sn = angle * (1 - a2 / 6 * (1 - a2 / 20 * (1 - a2 / 42)));
+      } else {
+        c = std::cos(angle), sn = std::sin(angle);
+      }
+      t.u_t = (speed * rho0 / rho1) * (c * across - sn * e0);
+      t.e = c * e0 + sn * across;
+    }
+    return t;
+  };
+  const bool gravity_on = x.g != Vec3::Zero();
+  const Real speed0 = p.u_t.norm();
+  Real a = x.sigma * x.g.dot(e0) + (rho0 > 0 ? x.sigma * speed0 * speed0 / rho0 : 0.0);
+  Stretch s = push(o, sep, a, p.normal, limit, whole_step);
+  for (int iteration = 0; iteration < 8 && rho0 > 0; ++iteration) {
+    const Real rho1 = radius_of(x, s.end);
+    if (!(rho1 > 0)) break;
+    const Real l = rho0 * (gravity_on ? (p.u_t + (0.5 * s.time) * g_across).norm() : speed0);  // [m^2/s]
+    const Real centrifugal = x.sigma * l * l * (rho0 + rho1) / (2 * rho0 * rho0 * rho1 * rho1);
+    Real gravity = 0;
+    if (gravity_on) {
+      const Vec3 mean = e0 + turn(s).e;
+      gravity = x.sigma * x.g.dot(mean) / mean.norm();
+    }
+    const Real next = gravity + centrifugal;
+    if (std::abs(next - a) <= 4 * std::numeric_limits<Real>::epsilon() * (std::abs(gravity) + std::abs(centrifugal)))
+      break;
+    if (whole_step && !s.released) {
+      // No event within the step: the end is affine in the forcing (the Gamma column of PHYSICS.md
+      // 3.1), so the new forcing needs no new flow.
+      s.end.delta += whole_step->gamma1 * (next - a);
+      s.end.rate += whole_step->gamma2 * (next - a);
+    } else {
+      s = push(o, sep, next, p.normal, limit, nullptr);
+    }
+    a = next;
+  }
+  k.dissipated += k.effective_mass * (normal_energy(o, a, p.normal, true) - normal_energy(o, a, s.end, !s.released));
+  const Turn t = turn(s);
+  p.e = t.e;
+  p.u_t = t.u_t + (0.5 * s.time) * (x.g - x.g.dot(t.e) * t.e);
+  p.normal = s.end;
+  return s;
+}
+
+/// P_k(tau) of the relative motion. Apart: exact free flight, up to an onset found on the true path
+/// (first_entry), or, under force_zero with a residual overlap, up to the force rising through zero
+/// again (along the normal, to second order). Pushing: contact_stretch. Each stretch ends at an event,
+/// so an isolated head-on contact stays exact at any step.
+void radial_flow(Radial& x, ExactInteraction& k, Separation sep, Real tau, const PropagatorCoefficients* whole_step) {
+  const NormalOscillator& o = k.oscillator;
+  Polar p = polar_of(x);
+  bool pushing = pushes(o, sep, p.normal);
+  Real left = tau;
+  // A contact can only bounce so often within one step; past the cap, events are ignored so the flow
+  // always ends (round-off chatter at a graze).
+  for (int pass = 0; left > 0; ++pass) {
+    if (pushing) {
+      const Stretch s = contact_stretch(k, sep, x, p, left, pass == 0 ? whole_step : nullptr);
+      set_cartesian(x, p);
+      if (!s.released) return;
+      left -= s.time;
+      pushing = false;
+      continue;
+    }
+    Real t = pass < 16 ? first_entry(x.r, x.u, x.g, x.reach, x.sigma, left) : never;
+    bool by_force = false;
+    if (pass < 16 && sep == Separation::force_zero && o.beta > 0 && p.normal.delta > 0) {
+      // Released with a residual overlap: pressed again when k delta + c delta' rises through zero.
+      const Real a = x.sigma * (x.g.dot(p.e) + p.u_t.squaredNorm() / radius_of(x, p.normal));
+      const Real w2 = o.omega0 * o.omega0, b2 = 2 * o.beta;
+      const NormalState& n = p.normal;
+      const Real press = first_rising_root(w2 * n.delta + b2 * n.rate, w2 * n.rate + b2 * a, 0.5 * w2 * a, left);
+      if (press < t && n.delta + press * (n.rate + 0.5 * press * a) > 0) t = press, by_force = true;
+    }
+    const Real flight = std::min(t, left);
+    x.r += flight * x.u + (0.5 * flight * flight) * x.g;
+    x.u += flight * x.g;
+    if (!(t < left)) return;
+    left -= flight;
+    p = polar_of(x);
+    // Put the state exactly on the onset condition, as advance_normal does; a graze (touching without
+    // moving in) stays apart.
+    if (by_force) p.normal.rate = -o.omega0 * o.omega0 * p.normal.delta / (2 * o.beta);
+    else p.normal.delta = 0;
+    pushing = by_force || p.normal.rate > 0;
+  }
+}
+
+/// P_k(tau) for a particle pair: the centre of mass in free flight, the relative motion by radial_flow.
 void pair_flow(State& s, ExactInteraction& k, const ExactSettings& set, Real tau) {
   const ParticleIndex i = k.i, j = k.j;
   const Real inv_i = s.inv_mass[i], inv_j = s.inv_mass[j];
   const Vec3 gi = gravity_of(s, i, set.gravity), gj = gravity_of(s, j, set.gravity);
-  const Vec3 r = s.position[i] - s.position[j];
-  const Real d = r.norm();
-  const Vec3 n = d > 0 ? Vec3(r / d) : Vec3(Vec3::UnitX());
-  const Vec3 u = s.velocity[i] - s.velocity[j];
-  const Vec3 dg = gi - gj;
-  const Real a = -dg.dot(n);
-  const Real reach = s.radius[i] + s.radius[j];
-  const NormalState before{reach - d, -u.dot(n)};
-  int events = 0;
-  const NormalState after = advance_normal(k.oscillator, set.separation, a, before, tau, &events, k.half_step);
-  Vec3 r_new, u_new;
-  if (events == 0 && !pushes(k.oscillator, set.separation, before)) {
-    // No force during the flow: plain free flight, exact.
-    r_new = r + tau * u + (0.5 * tau * tau) * dg;
-    u_new = u + tau * dg;
-  } else {
-    // The distance follows the exact normal flow; the tangential motion turns the normal and keeps
-    // its speed. So the flow conserves the pair's energy exactly when undamped (a normal frozen
-    // over the flow would let the tangential drift stretch the pair and leak k delta |u_t tau|^2 / 2d
-    // per flow); the turn itself is first order in |u_t| tau / d (PHYSICS.md 3.3, "not exact").
-    k.dissipated += normal_energy(k, set.separation, a, before) - normal_energy(k, set.separation, a, after);
-    const Vec3 u_t = u + before.rate * n;
-    const Vec3 dg_t = dg - dg.dot(n) * n;
-    const Vec3 turned = d * n + tau * u_t + (0.5 * tau * tau) * dg_t;
-    const Real turned_norm = turned.norm();
-    const Vec3 n_new = turned_norm > 0 ? Vec3(turned / turned_norm) : n;
-    r_new = (reach - after.delta) * n_new;
-    u_new = -after.rate * n_new + law_detail::project_keep_length(u_t + tau * dg_t, n_new);
-  }
+  Radial x{s.position[i] - s.position[j], s.velocity[i] - s.velocity[j], gi - gj, s.radius[i] + s.radius[j], -1};
+  radial_flow(x, k, set.separation, tau, k.half_step);
   // Centre of mass, weighted by the masses (an immovable partner carries it).
   const Real w_i = inv_i / (inv_i + inv_j), w_j = inv_j / (inv_i + inv_j);
   const Vec3 x_cm = w_j * s.position[i] + w_i * s.position[j];
@@ -67,36 +313,75 @@ void pair_flow(State& s, ExactInteraction& k, const ExactSettings& set, Real tau
   const Vec3 g_cm = w_j * gi + w_i * gj;
   const Vec3 x_cm_new = x_cm + tau * v_cm + (0.5 * tau * tau) * g_cm;
   const Vec3 v_cm_new = v_cm + tau * g_cm;
-  s.position[i] = x_cm_new + w_i * r_new;
-  s.position[j] = x_cm_new - w_j * r_new;
-  s.velocity[i] = v_cm_new + w_i * u_new;
-  s.velocity[j] = v_cm_new - w_j * u_new;
+  s.position[i] = x_cm_new + w_i * x.r;
+  s.position[j] = x_cm_new - w_j * x.r;
+  s.velocity[i] = v_cm_new + w_i * x.u;
+  s.velocity[j] = v_cm_new - w_j * x.u;
 }
 
-/// P_k(tau) for a particle against a wall (infinite mass, its velocity at the contact frozen).
+/// A flat wall feature (plane, box face) in the frame moving with the wall's velocity at the contact
+/// point, frozen over tau: the normal does not turn, so the exact normal flow is the whole flow.
+/// Returns the frame's velocity.
+Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const ExactSettings& set, Real tau,
+                    const WallTouch& t, Real pad) {
+  const ParticleIndex p = k.i;
+  const Vec3 g = gravity_of(s, p, set.gravity);
+  const Vec3 n = t.normal;
+  const Real overlap = t.overlap - pad;
+  const Vec3 v_wall = walls.velocity_at(k.wall, s.position[p] - (s.radius[p] - 0.5 * overlap) * n);
+  const Vec3 u = s.velocity[p] - v_wall;
+  const NormalState start{overlap, -u.dot(n)};
+  const Real a = -g.dot(n);
+  const NormalState after = advance_normal(k.oscillator, set.separation, a, start, tau, nullptr, k.half_step);
+  const NormalOscillator& o = k.oscillator;
+  k.dissipated += k.effective_mass * (normal_energy(o, a, start, pushes(o, set.separation, start)) -
+                                      normal_energy(o, a, after, pushes(o, set.separation, after)));
+  const Vec3 u_t = u + start.rate * n;
+  const Vec3 g_t = g - g.dot(n) * n;
+  s.position[p] += tau * v_wall + (start.delta - after.delta) * n + tau * u_t + (0.5 * tau * tau) * g_t;
+  s.velocity[p] = v_wall - after.rate * n + u_t + tau * g_t;
+  return v_wall;
+}
+
+/// The inside of a cylinder, in the frame of its axis (where the shell is at rest: a spin about its own
+/// axis does not move it; any other rotation is frozen over tau): along the axis free flight, across
+/// it the polar flow of the pair, the axis as centre, so the normal turns with the motion around it.
+/// Returns the frame's velocity.
+Vec3 cylinder_flow(State& s, const Walls& walls, ExactInteraction& k, const ExactSettings& set, Real tau) {
+  const ParticleIndex p = k.i;
+  const Vec3 g = gravity_of(s, p, set.gravity);
+  const Vec3 axis = walls.rotation(k.wall) * walls.config(k.wall).axis;
+  const Real along = (s.position[p] - walls.point(k.wall)).dot(axis);
+  const Vec3 centre = walls.point(k.wall) + along * axis;
+  const Vec3 v_frame = walls.velocity_at(k.wall, centre);
+  const Vec3 u = s.velocity[p] - v_frame;
+  const Real u_along = u.dot(axis), g_along = g.dot(axis);
+  const Real reach = walls.config(k.wall).radius - s.radius[p];
+  Radial x{s.position[p] - centre, u - u_along * axis, g - g_along * axis, reach, 1};
+  radial_flow(x, k, set.separation, tau, k.half_step);
+  s.position[p] = centre + tau * v_frame + (tau * u_along + 0.5 * tau * tau * g_along) * axis + x.r;
+  s.velocity[p] = v_frame + (u_along + tau * g_along) * axis + x.u;
+  return v_frame;
+}
+
+/// P_k(tau) for a particle against a wall (infinite mass). Also books the work the wall did on the
+/// particle: the frame's velocity times the contact impulse m (dv - g tau), exact for the flow's wall.
 void wall_flow(State& s, const Walls& walls, ExactInteraction& k, const ExactSettings& set, Real tau) {
   const ParticleIndex p = k.i;
   const Vec3 g = gravity_of(s, p, set.gravity);
   const Real r = s.radius[p];
-  // Geometry with a padded radius: beyond the pad the particle cannot reach the wall within tau.
-  const Real pad = r + s.velocity[p].norm() * tau + 0.5 * g.norm() * tau * tau;
+  const Vec3 v0 = s.velocity[p];
+  // Geometry with a padded radius: beyond the pad the particle cannot reach the wall within tau (its
+  // speed relative to the wall, which may be moving towards it).
+  const Real pad = r + (v0 - walls.velocity_at(k.wall, s.position[p])).norm() * tau + 0.5 * g.norm() * tau * tau;
   WallTouch t;
   if (!walls.touch(k.wall, k.feature, s.position[p], r + pad, t)) {
     free_flight(s, p, set.gravity, tau);
     return;
   }
-  const Vec3 n = t.normal;
-  const Real overlap = t.overlap - pad;
-  const Vec3 v_wall = walls.velocity_at(k.wall, s.position[p] - (r - 0.5 * overlap) * n);
-  const Vec3 u = s.velocity[p] - v_wall;
-  const NormalState start{overlap, -u.dot(n)};
-  const Real a = -g.dot(n);
-  const NormalState after = advance_normal(k.oscillator, set.separation, a, start, tau, nullptr, k.half_step);
-  k.dissipated += normal_energy(k, set.separation, a, start) - normal_energy(k, set.separation, a, after);
-  const Vec3 u_t = u + start.rate * n;
-  const Vec3 g_t = g - g.dot(n) * n;
-  s.position[p] += tau * v_wall + (start.delta - after.delta) * n + tau * u_t + (0.5 * tau * tau) * g_t;
-  s.velocity[p] = v_wall - after.rate * n + u_t + tau * g_t;
+  const Vec3 v_frame = walls.config(k.wall).kind == WallKind::cylinder ? cylinder_flow(s, walls, k, set, tau)
+                                                                       : flat_wall_flow(s, walls, k, set, tau, t, pad);
+  k.work += v_frame.dot((s.velocity[p] - v0) - tau * g) / s.inv_mass[p];
 }
 
 void flow(State& s, const Walls& walls, ExactInteraction& k, const ExactSettings& set, Real tau) {
@@ -163,7 +448,8 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
       const EffectiveMasses m =
           effective_masses(s.inv_mass[a], s.inv_inertia[a], s.radius[a], s.inv_mass[b], s.inv_inertia[b], s.radius[b]);
       const LawConstants c = materials.constants(materials.pair_class(s.material[a], s.material[b]), m);
-      work.interactions[slot++] = {a, b, ExactInteraction::no_wall, 0, oscillator_of(c, m.m_star), c.k_n, m.m_star, 0, nullptr};
+      work.interactions[slot++] = {a, b, ExactInteraction::no_wall, 0, oscillator_of(c, m.m_star), c.k_n, m.m_star, 0, 0,
+                                   nullptr};
     }
     for (std::size_t w = 0; w < walls.count(); ++w)
       for (std::uint32_t f = 0; f < walls.feature_count(w); ++f) {
@@ -172,7 +458,7 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
                                                    std::numeric_limits<Real>::infinity());
         const LawConstants c = materials.constants(materials.pair_class(s.material[a], walls.material(w)), m);
         work.interactions[slot++] = {a, a, static_cast<std::uint32_t>(w), f, oscillator_of(c, m.m_star), c.k_n,
-                                     m.m_star, 0, nullptr};
+                                     m.m_star, 0, 0, nullptr};
       }
   });
 }
@@ -266,13 +552,20 @@ Real exact_step(State& s, Walls& walls, const MaterialTable& materials,
     const Real dissipated = compose(s, walls, set, t, h, work);
     walls.set_time(t + h);
     std::vector<std::uint64_t> missed;
-    if (attempt < 8) find_missed(s, walls, candidates, work, missed);
-    if (missed.empty()) return dissipated;
-    work.forced.insert(work.forced.end(), missed.begin(), missed.end());
-    std::sort(work.forced.begin(), work.forced.end());
-    s.position = work.saved_position;
-    s.velocity = work.saved_velocity;
-    ++work.retries;
+    find_missed(s, walls, candidates, work, missed);
+    if (!missed.empty() && attempt < work.max_retries) {
+      work.forced.insert(work.forced.end(), missed.begin(), missed.end());
+      std::sort(work.forced.begin(), work.forced.end());
+      s.position = work.saved_position;
+      s.velocity = work.saved_velocity;
+      ++work.retries;
+      continue;
+    }
+    // Out of retries: accept, but never silently.
+    if (!missed.empty()) ++work.unresolved;
+    work.wall_work +=
+        block_sum<Real>(work.interactions.size(), [&](std::size_t k) { return work.interactions[k].work; });
+    return dissipated;
   }
 }
 

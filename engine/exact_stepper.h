@@ -8,13 +8,22 @@
 //   free flight of every particle over h (gravity included)                      F(h)
 //   for colours C..1:  each interaction k:  the adjoint, exact flow after removing the drift
 //                                           M_k* = P_k(h/2) o F_ij(-h/2)
-// An isolated pair or wall contact is exact at any h (the drifts cancel: P(h/2) P(h/2) = P(h)), and
-// so is free flight. Approximations, stated as PHYSICS.md 3.4 asks: several simultaneous contacts
-// are coupled only through the splitting (second order in the coupling, symplectic and
-// time-reversible when undamped); in a pair flow the distance follows the exact normal flow while
-// the tangential drift turns the normal, keeping the tangential speed (exact energy when undamped,
-// direction first order in |u_t| h / distance); a wall's velocity and normal are frozen over h/2; a
-// contact the step's anticipation missed makes it redo the step with that contact included.
+// Exact at any h: free flight, a head-on pair, a contact with a flat wall (the drifts cancel:
+// P(h/2) P(h/2) = P(h)), and whether an interaction's particles touch at all: onsets are found on the
+// true 3-D path, so a near miss stays a miss. Approximations, stated as PHYSICS.md 3.4 asks:
+//  - several simultaneous contacts are coupled only through the splitting (second order in the
+//    coupling, symplectic and time-reversible when undamped);
+//  - an oblique pair, and a particle inside a cylinder wall, move in polar form about the partner (the
+//    axis) while pushing: the distance follows the exact normal flow with the centrifugal term
+//    |u_t|^2 / distance folded into its constant forcing, the tangential velocity keeps the angular
+//    momentum and turns the normal. Energy and angular momentum are kept to round-off when undamped (the
+//    centrifugal forcing is the discrete gradient between the stretch's ends) and the error converges
+//    as h^2; gravity on one side only (an immovable partner, a cylinder wall) turns with the normal,
+//    so energy is then kept to second order (symmetric stretches: bounded, no drift);
+//  - a wall's velocity is frozen over h/2 at its contact point (the axis, for a cylinder), and so is
+//    the normal of a flat feature (exact for planes and box faces, not for a solid box's edges);
+//  - a contact the step's anticipation missed makes it redo the step with that contact included, up to
+//    max_retries times; a contact still missed then is accepted and counted in `unresolved`.
 // Friction and rolling resistance are not handled here yet (the World refuses them).
 // Threading: interactions of one colour run in parallel, each writing only its two particles and
 // its own slot; colours, pairs and sums are in fixed orders, so results do not depend on threads.
@@ -42,6 +51,7 @@ struct ExactInteraction {
   Real stiffness;           // k [N/m], for the elastic energy
   Real effective_mass;      // m* [kg]
   Real dissipated;          // energy lost in this step [J]
+  Real work;                // work the wall did on the particle in this step [J]; 0 for pairs
   const PropagatorCoefficients* half_step;  // table entry for h/2, or nullptr
 
   static constexpr std::uint32_t no_wall = 0xffffffffu;
@@ -55,6 +65,9 @@ struct ExactWorkspace {
   std::vector<std::uint64_t> forced;             // interactions a retry must include (sorted keys)
   std::vector<Vec3> saved_position, saved_velocity;  // the state a retry restarts from
   std::uint64_t retries = 0;                       // steps redone because a contact was missed
+  std::uint64_t unresolved = 0;  // steps accepted with a contact still missed after max_retries
+  Real wall_work = 0;            // work done by moving walls on the particles, summed over steps [J]
+  int max_retries = 8;           // redos of one step before a missed contact is accepted (and counted)
   // Coefficient table (PHYSICS.md 3.2): one class per distinct (omega0, beta), built on demand for
   // the step h/2 in use; cleared when the step changes or the classes pass table_capacity (a wide
   // size distribution makes nearly every pair a class of its own).
@@ -82,7 +95,8 @@ Real max_free_displacement(const State& state, const Vec3& gravity, Real h);
 
 /// Advances every particle from t to t + h [s] with scheme (D); the walls are moved to the start of
 /// each half sweep and left at t + h. `candidates` must hold every pair that can touch within the
-/// step. Returns the energy the contacts dissipated [J].
+/// step. Returns the energy the contacts dissipated [J]; adds the work of moving walls to work.wall_work
+/// and counts a step accepted with a contact still missed in work.unresolved.
 Real exact_step(State& state, Walls& walls, const MaterialTable& materials,
                 const broadphase::CandidatePairs& candidates, const ExactSettings& settings, Real t, Real h,
                 ExactWorkspace& work);
