@@ -1,5 +1,6 @@
 #include "engine/normal_flow.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -11,10 +12,18 @@ namespace {
 constexpr Real never = std::numeric_limits<Real>::infinity();
 
 /// Smallest root t in [0, limit] of c0 + c1 t + c2 t^2 at which the quadratic rises (its derivative
-/// c1 + 2 c2 t > 0), or infinity. Roots by the cancellation-free formula. A root at t = 0 counts: a
-/// contact touching exactly at the start of a step begins at once (a falling root there, as right
-/// after a release, does not).
+/// c1 + 2 c2 t > 0, or a double root of a convex quadratic), or infinity. Roots by the
+/// cancellation-free formula. A root at t = 0 counts: a contact touching exactly at the start of a
+/// step begins at once (a falling root there, as right after a release, does not).
 Real first_rising_root(Real c0, Real c1, Real c2, Real limit) {
+  if (c0 == 0) {
+    // Touching now (right after a release, or at rest): the roots are 0 and -c1/c2, exactly, with no
+    // discriminant to underflow for a tiny c1. A double root at 0 of a convex quadratic (a body
+    // touching at rest, pressed in) rises at once, though its derivative is zero there.
+    if (c1 > 0 || (c1 == 0 && c2 > 0)) return 0;
+    const Real t = c1 < 0 && c2 > 0 ? -c1 / c2 : never;
+    return t <= limit ? t : never;
+  }
   Real roots[2];
   int count = 0;
   if (c2 == 0) {
@@ -64,6 +73,48 @@ Onset onset_time(const NormalOscillator& o, Separation separation, NormalState s
   return onset;
 }
 
+/// Rate of change, along the contact flow, of the quantity whose sign decides pushes(): the overlap,
+/// or under force_zero the force per unit mass omega0^2 delta + 2 beta delta', whose derivative takes
+/// delta'' = a - omega0^2 delta - 2 beta delta' from the contact equation.
+Real push_slope(const NormalOscillator& o, Separation separation, Real a, const NormalState& s) {
+  if (separation == Separation::overlap) return s.rate;
+  const Real w2 = o.omega0 * o.omega0;
+  return w2 * s.rate + 2 * o.beta * (a - w2 * s.delta - 2 * o.beta * s.rate);
+}
+
+/// Puts s exactly on the force-zero condition omega0^2 delta + 2 beta delta' = 0 by moving the overlap
+/// to the residual -2 beta delta' / omega0^2 (PHYSICS.md 1.1), rounded one ulp towards `side` so that
+/// pushes() evaluates the force as >= 0 (+infinity) or <= 0 (-infinity). The overlap, not the rate, is
+/// moved: solving for the rate would divide round-off by a small beta.
+void place_on_force_zero(const NormalOscillator& o, NormalState& s, Real side) {
+  const Real w2 = o.omega0 * o.omega0;
+  if (w2 > 0) s.delta = std::nextafter(-(2 * o.beta * s.rate) / w2, side);
+  else s.rate = 0;  // no spring: the force is 2 beta delta' alone
+}
+
+/// Puts a state that has just begun to push exactly on its onset condition, on the pushing side, so the
+/// release search cannot take round-off for the crossing just made and end the contact at once.
+void place_at_onset(const NormalOscillator& o, bool by_force, NormalState& s) {
+  if (by_force && o.beta > 0) {
+    place_on_force_zero(o, s, never);
+  } else {
+    s.delta = 0;
+    s.rate = std::max(s.rate, Real{0});  // an onset never recedes (touch at rest: rate 0)
+  }
+}
+
+/// The same at a release, on the non-pushing side, so that the onset search starts from a state that
+/// does not push. (A state left pushing by round-off would need a zero-time switch back to contact,
+/// and such switches can chatter without end between two roots an ulp apart.)
+void place_at_release(const NormalOscillator& o, Separation separation, NormalState& s) {
+  if (separation == Separation::force_zero && o.beta > 0) {
+    place_on_force_zero(o, s, -never);
+  } else {
+    s.delta = 0;
+    s.rate = std::min(s.rate, Real{0});  // a release never approaches
+  }
+}
+
 }  // namespace
 
 bool pushes(const NormalOscillator& o, Separation separation, const NormalState& s) {
@@ -75,13 +126,25 @@ NormalState advance_normal(const NormalOscillator& o, Separation separation, Rea
                            int* events, const PropagatorCoefficients* whole_step) {
   bool in_contact = pushes(o, separation, s);
   if (whole_step && in_contact && tau * o.omega0 <= 0.5 * pi) {
+    // The slope of the pushing quantity solves the homogeneous equation, so its zeros are pi/omega_d
+    // apart (one at most when over-damped): within a quarter period the quantity has one extremum at
+    // most. Pushing at both ends, it stopped pushing in between only if it passed a minimum, i.e. fell
+    // at the start and rose at the end; otherwise no release can hide inside.
     const NormalState end = apply(*whole_step, s, a);
-    if (pushes(o, separation, end)) return end;
+    const bool dipped = push_slope(o, separation, a, s) < 0 && push_slope(o, separation, a, end) > 0;
+    if (pushes(o, separation, end) && !dipped) return end;
   }
   Real left = tau;
-  // Each pass ends at an event or at the end of the step; a contact can only bounce so often within
-  // one step, but a cap guards against chattering at round-off.
-  for (int pass = 0; pass < 64 && left > 0; ++pass) {
+  // Each pass ends at an event or at the end of the step, so one step holds any number of bounces.
+  // Events put the state exactly on their side of the switching condition, so the next search cannot
+  // find the crossing just made. Should round-off still make the flow chatter (events that advance
+  // time by a few ulps only, e.g. at a tangency), the loop stops after a run of them and the rest of
+  // the step keeps the current mode.
+  constexpr int max_stalled_events = 16;
+  constexpr Real no_progress = 16 * std::numeric_limits<Real>::epsilon();  // fraction of the time left
+  int stalled = 0;
+  while (left > 0 && stalled < max_stalled_events) {
+    const Real left_before = left;
     if (in_contact) {
       const Real release = separation == Separation::force_zero
                                ? force_zero_time(o.omega0, o.beta, s.delta, s.rate, a)
@@ -89,18 +152,17 @@ NormalState advance_normal(const NormalOscillator& o, Separation separation, Rea
       if (!(release < left)) return oscillate(o, s, a, left);
       s = oscillate(o, s, a, release);
       left -= release;
+      place_at_release(o, separation, s);
     } else {
       const Onset onset = onset_time(o, separation, s, a, left);
       if (!(onset.time < left)) return free_flight(s, a, left);
       s = free_flight(s, a, onset.time);
       left -= onset.time;
-      // Put the state exactly on the onset condition: round-off on the wrong side would make the
-      // release search see the zero crossing just passed and end the contact at once.
-      if (onset.by_force && o.beta > 0) s.rate = -o.omega0 * o.omega0 * s.delta / (2 * o.beta);
-      else s.delta = 0;
+      place_at_onset(o, onset.by_force, s);
     }
     in_contact = !in_contact;
     if (events) ++*events;
+    stalled = left < left_before * (1 - no_progress) ? 0 : stalled + 1;
   }
   return in_contact ? oscillate(o, s, a, left) : free_flight(s, a, left);
 }

@@ -23,12 +23,15 @@ struct NormalOscillator {
 /// True when the contact pushes in state s: delta > 0 and, under force_zero, k delta + c delta' > 0.
 bool pushes(const NormalOscillator& o, Separation separation, const NormalState& s);
 
-/// Advances s over tau [s] under constant relative forcing a [m/s^2] (a = -(a_i - a_j) . n).
-/// `events` (optional) receives the number of onsets and releases crossed. `whole_step` (optional):
-/// precomputed propagator coefficients for exactly tau (PHYSICS.md 3.2), used when the contact
-/// pushes at both ends of a step no longer than a quarter period; the release search is then skipped
-/// [E]: a release and re-contact inside such a step (a graze of the force through zero) is not
-/// resolved.
+/// Advances s over tau [s] under constant relative forcing a [m/s^2] (a = -(a_i - a_j) . n), through
+/// any number of onsets and releases (a long step may hold many bounces). A body touching at rest
+/// (delta = 0, delta' = 0) and pressed in (a > 0) starts a contact at once.
+/// `events` (optional) is increased by the number of onsets and releases crossed. `whole_step`
+/// (optional): precomputed propagator coefficients for exactly tau (PHYSICS.md 3.2). In a step no
+/// longer than a quarter period the pushing quantity (overlap, or force under force_zero) has at most
+/// one extremum, so when the contact pushes at both ends and that quantity did not fall at the start
+/// and rise at the end, no release can lie inside: the coefficients give the end state and the
+/// release search is skipped.
 NormalState advance_normal(const NormalOscillator& o, Separation separation, Real a, NormalState s, Real tau,
                            int* events = nullptr, const PropagatorCoefficients* whole_step = nullptr);
 
