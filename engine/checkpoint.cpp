@@ -164,7 +164,8 @@ std::string World::checkpoint_bytes(std::uint64_t scene_hash) const {
   w.put(clock_.tick);
   for (std::uint64_t v : {counters_.sync_intervals, counters_.accepted_steps, counters_.rejected_steps,
                           counters_.forced_steps, counters_.particle_steps, counters_.force_evaluations,
-                          counters_.pair_rebuilds, counters_.richardson_steps, counters_.round_redos})
+                          counters_.pair_rebuilds, counters_.richardson_steps, counters_.round_redos,
+                          counters_.unresolved_contacts})
     w.put(v);
   w.put(counters_.level_histogram);
   w.put(ended_dissipation_);
@@ -203,7 +204,8 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   RunCounters counters;
   for (std::uint64_t* v : {&counters.sync_intervals, &counters.accepted_steps, &counters.rejected_steps,
                            &counters.forced_steps, &counters.particle_steps, &counters.force_evaluations,
-                           &counters.pair_rebuilds, &counters.richardson_steps, &counters.round_redos})
+                           &counters.pair_rebuilds, &counters.richardson_steps, &counters.round_redos,
+                           &counters.unresolved_contacts})
     *v = r.get<std::uint64_t>();
   r.get(counters.level_histogram);
   const Real ended = r.get<Real>();

@@ -30,6 +30,7 @@ struct IslandState {
   Real ended_dissipation = 0;   // by contacts that ended (Verlet) [J]
   Real exact_dissipated = 0;    // by the exact stepper's flows [J]
   Real wall_work = 0;           // by moving walls on the island [J]
+  std::uint64_t unresolved = 0; // exact steps accepted with a contact still missed
 };
 
 /// The physics every island shares.

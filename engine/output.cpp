@@ -235,6 +235,10 @@ std::vector<std::string> series_columns() {
           "coarsest_level"};
 }
 
+std::vector<std::string> trajectory_columns() {
+  return {"time", "id", "x", "y", "z", "vx", "vy", "vz", "wx", "wy", "wz"};
+}
+
 std::vector<std::string> wall_columns(const std::vector<std::string>& wall_names) {
   std::vector<std::string> columns{"time"};
   for (const std::string& name : wall_names) {

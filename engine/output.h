@@ -36,6 +36,8 @@ void write_file_atomically(const std::filesystem::path& path, const std::string&
 /// Columns of `series.csv`, in order: time, energies, momentum, contacts, cost counters.
 std::vector<std::string> series_columns();
 /// Columns of the per-wall file: `time`, then `<name>_fx, _fy, _fz, _tx, _ty, _tz` for each wall, in order.
+/// Columns of trajectories.csv: one row per particle and output time, in id order.
+std::vector<std::string> trajectory_columns();
 std::vector<std::string> wall_columns(const std::vector<std::string>& wall_names);
 
 /// An append-only CSV whose first column is the time [s]. The header is written once, when the file is

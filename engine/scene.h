@@ -19,6 +19,7 @@ struct OutputSettings {
   Real interval = 0.01;              // series rows at the first sync time at or after each multiple [s]
   Real snapshot_interval = -1;       // VTK snapshots [s]; negative: equal to interval; 0: none
   std::string settled_file;          // when set, particles are written here (CSV) at the end
+  bool trajectories = false;         // trajectories.csv: every particle's state at every row (few-body scenes)
 };
 
 /// Where a particle came from, for error messages that point into the input.

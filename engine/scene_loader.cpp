@@ -556,6 +556,7 @@ void read_run_and_output(TableReader& top, Scene& scene) {
     scene.output.interval = r.positive("interval", scene.output.interval);
     scene.output.snapshot_interval = r.non_negative("snapshot_interval", scene.output.interval);
     scene.output.settled_file = r.string("settled_file", "");
+    scene.output.trajectories = r.boolean("trajectories", false);
     r.finish();
   }
   if (scene.output.snapshot_interval < 0) scene.output.snapshot_interval = scene.output.interval;

@@ -119,8 +119,11 @@ void World::step_exact(Real h) {
     rebuild_candidates();
   }
   const ExactSettings settings{config_.model.separation, gravity_, config_.model.dimension};
-  const std::uint64_t retries = exact_work_.retries;
+  const std::uint64_t retries = exact_work_.retries, unresolved = exact_work_.unresolved;
+  const Real wall_work = exact_work_.wall_work;
   exact_dissipated_ += exact_step(state_, walls_, materials_, candidates_, settings, time(), h, exact_work_);
+  wall_work_ += exact_work_.wall_work - wall_work;  // exact, flow by flow
+  counters_.unresolved_contacts += exact_work_.unresolved - unresolved;
   // A step redone because it missed a contact costs a full trial: count it (DESIGN.md, counters).
   const std::uint64_t redone = (exact_work_.retries - retries) * state_.size();
   counters_.particle_steps += redone;
@@ -154,7 +157,7 @@ StepStatus World::advance_sync_interval() {
     }
     // Work of moving walls, with the forces at the end of the step (a rectangle rule: an audit, not
     // the physics).
-    if (walls_move_) wall_work_ += h * wall_power();
+    if (walls_move_ && config_.integrator.method == Method::verlet) wall_work_ += h * wall_power();
     finite = state_is_finite();
   });
   const std::uint64_t n = state_.size();

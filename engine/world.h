@@ -57,6 +57,7 @@ struct RunCounters {
   std::uint64_t particle_steps = 0;
   std::uint64_t force_evaluations = 0;
   std::uint64_t pair_rebuilds = 0;
+  std::uint64_t unresolved_contacts = 0;  // exact steps accepted with a contact missed after every retry
   // Step doubling only:
   std::uint64_t richardson_steps = 0;     // island steps that took the improved value
   std::uint64_t round_redos = 0;          // island rounds redone: a contact between islands or a skin overrun

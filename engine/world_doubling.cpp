@@ -224,6 +224,7 @@ void gather_island(const Islands& islands, const std::vector<std::uint32_t>& loc
   }
   job.island.adjacency.wall_start.clear();
   job.island.ended_dissipation = job.island.exact_dissipated = job.island.wall_work = 0;
+  job.island.unresolved = 0;
 }
 
 }  // namespace
@@ -379,6 +380,7 @@ void World::finish_round() {
     ended_dissipation_ += job.island.ended_dissipation;
     exact_dissipated_ += job.island.exact_dissipated;
     wall_work_ += job.island.wall_work;
+    counters_.unresolved_contacts += job.island.unresolved;
   }
   std::swap(state_.position, d.next.position);
   std::swap(state_.velocity, d.next.velocity);

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 
 #include "engine/input_error.h"
@@ -57,6 +58,14 @@ std::vector<double> series_row(const World& world) {
           static_cast<double>(c.round_redos),
           static_cast<double>(finest_level(world)),
           static_cast<double>(coarsest_level(world))};
+}
+
+void append_trajectories(SeriesWriter& out, const World& world) {
+  const State& s = world.state();
+  for (ParticleIndex p : s.index_of_id) {
+    const Vec3 &x = s.position[p], &v = s.velocity[p], &w = s.angular_velocity[p];
+    out.append({world.time(), static_cast<double>(s.id[p]), x.x(), x.y(), x.z(), v.x(), v.y(), v.z(), w.x(), w.y(), w.z()});
+  }
 }
 
 std::vector<double> wall_row(const World& world) {
@@ -282,14 +291,18 @@ int run_command(const RunOptions& options) {
   // checkpoint's time and drops anything later (written after the checkpoint by the run that died).
   const bool resuming = !options.resume.empty();
   if (!resuming)
-    for (const char* file : {"series.csv", "walls.csv", "particles.pvd", "walls.pvd"}) std::filesystem::remove(out / file);
+    for (const char* file : {"series.csv", "walls.csv", "trajectories.csv", "particles.pvd", "walls.pvd"})
+      std::filesystem::remove(out / file);
   SeriesWriter series(out / "series.csv", series_columns());
+  std::optional<SeriesWriter> trajectories;
+  if (scene.output.trajectories) trajectories.emplace(out / "trajectories.csv", trajectory_columns());
   SeriesWriter walls(out / "walls.csv", wall_columns(wall_names));
   PvdIndex particles_pvd(out / "particles.pvd");
   PvdIndex walls_pvd(out / "walls.pvd");
   if (resuming) {
     series.truncate_after(world.time());
     walls.truncate_after(world.time());
+    if (trajectories) trajectories->truncate_after(world.time());
     particles_pvd.truncate_after(world.time());
     walls_pvd.truncate_after(world.time());
   }
@@ -309,6 +322,7 @@ int run_command(const RunOptions& options) {
     if (rows.due(t) || final_row) {
       series.append(series_row(world));
       walls.append(wall_row(world));
+      if (trajectories) append_trajectories(*trajectories, world);
       rows.done_at(t);
     }
     if (snapshots.due(t) || (snapshots.enabled() && final_row)) {
@@ -416,6 +430,7 @@ int run_command(const RunOptions& options) {
       .add("force_evaluations", c.force_evaluations)
       .add("pair_rebuilds", c.pair_rebuilds)
       .add("round_redos", c.round_redos)
+      .add("unresolved_contacts", c.unresolved_contacts)
       .add("richardson_steps", c.richardson_steps);
   // Accepted particle-steps per level ("level": count), levels that were used only.
   JsonObject histogram;
