@@ -1,6 +1,7 @@
 #pragma once
 // A scene: the world to build plus how to run it and what to write. Filled by scene_loader from a
 // TOML file (scenes/README.md documents every key) or in code by an embedding program.
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -22,6 +23,15 @@ struct OutputSettings {
   bool trajectories = false;         // trajectories.csv: every particle's state at every row (few-body scenes)
 };
 
+/// Metric names an `[accuracy]` section may list (scenes/README.md): `dem trade` measures these.
+inline constexpr std::array<const char*, 5> accuracy_metric_names = {"trajectory", "dissipated_energy", "bed_height",
+                                                                     "kinetic_energy", "wall_force"};
+
+/// What `dem trade` compares against its reference run; not physics (not in the physics hash).
+struct AccuracySettings {
+  std::vector<std::string> metrics;  // names from accuracy_metric_names, each once; empty: chosen from the scene
+};
+
 /// Where a particle came from, for error messages that point into the input.
 struct ParticleSource {
   std::string file;
@@ -36,6 +46,7 @@ struct Scene {
   WorldConfig world;
   RunSettings run;
   OutputSettings output;
+  AccuracySettings accuracy;
   Real max_initial_overlap = 0.01;   // relative to the smaller radius of a pair [-]
   std::vector<ParticleSource> sources;  // one per particle of world.particles
   std::vector<std::uint64_t> seeds;     // generator seeds, for provenance

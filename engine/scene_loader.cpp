@@ -568,6 +568,29 @@ void read_run_and_output(TableReader& top, Scene& scene) {
   }
 }
 
+/// [accuracy]: the metrics `dem trade` measures, each a name of accuracy_metric_names, at most once.
+void read_accuracy(TableReader& top, Scene& scene) {
+  const toml::table* t = top.table("accuracy");
+  if (!t) return;
+  TableReader r(*t, "accuracy", top.file());
+  const std::vector<std::string> valid(accuracy_metric_names.begin(), accuracy_metric_names.end());
+  if (const toml::node* node = r.node("metrics")) {
+    const toml::array* a = node->as_array();
+    if (!a || a->empty()) r.fail("metrics", "expected a non-empty array of metric names from: " + join(valid));
+    for (const toml::node& e : *a) {
+      const toml::node* where = e.source().begin.line == 0 ? node : &e;
+      const auto name = e.value_exact<std::string>();
+      if (!name) r.fail_at(where, "metrics", "expected metric names (strings) from: " + join(valid));
+      if (std::find(valid.begin(), valid.end(), *name) == valid.end())
+        r.fail_at(where, "metrics", "unknown metric '" + *name + "'; valid metrics: " + join(valid));
+      if (std::find(scene.accuracy.metrics.begin(), scene.accuracy.metrics.end(), *name) != scene.accuracy.metrics.end())
+        r.fail_at(where, "metrics", "metric '" + *name + "' is listed twice");
+      scene.accuracy.metrics.push_back(*name);
+    }
+  }
+  r.finish();
+}
+
 /// Splits "a.b[2].c" into steps; a step is a key or an array index.
 struct PathStep {
   std::string key;
@@ -676,6 +699,7 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   read_particles(top, scene, base_dir);
   const bool level_max_given = read_integrator(top, scene);
   read_run_and_output(top, scene);
+  read_accuracy(top, scene);
   top.finish();
   // Outputs happen at sync times, so by default a doubling run's longest step (the sync interval)
   // is at most the output interval: `--set integrator.control=doubling` keeps a scene's rows.
@@ -694,6 +718,7 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   toml::table physics = root;
   physics.erase("run");
   physics.erase("output");
+  physics.erase("accuracy");
   std::ostringstream resolved;
   resolved << physics << derived;  // a level_max derived from the output interval is physics too
   scene.physics_hash = fnv1a(resolved.str());

@@ -21,6 +21,23 @@ struct RunOptions {
 
 int run_command(const RunOptions& options);
 
+/// `dem trade`: the speed-accuracy trade of a scene against a reference run (trade_command.cpp).
+struct TradeOptions {
+  std::string scene;
+  std::vector<double> fixed;           // --fixed: fixed steps [s]
+  std::vector<double> tolerances;      // --tol: step-doubling tolerances
+  std::string method;                  // --method: verlet or exact; empty: the scene's
+  std::string reference = "auto";      // auto, or a reference.csv / trajectories.csv to load
+  std::string out;                     // default: out/<scene-name>/trade
+  int threads = -1;                    // -1: the scene's setting
+  double until = -1;                   // -1: the scene's run.until [s]
+  std::vector<std::string> overrides;  // --set key.path=value
+  bool quiet = false;
+  bool plot = true;                    // call bench/plot_trade.py for trade.png
+};
+
+int trade_command(const TradeOptions& options);
+
 /// Validates a scene and prints what it contains and the stability figures of each contact class.
 int check_command(const std::string& scene, const std::vector<std::string>& overrides);
 

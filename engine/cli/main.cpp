@@ -36,6 +36,30 @@ int main(int argc, char** argv) {
   check_cmd->add_option("scene", check_scene, "scene file (TOML)")->required();
   check_cmd->add_option("--set", check_overrides, "override a scene value: key.path=value (repeatable)");
 
+  dem::cli::TradeOptions trade;
+  CLI::App* trade_cmd = app.add_subcommand(
+      "trade", "measure the speed-accuracy trade: fixed steps and doubling tolerances against a reference run");
+  trade_cmd->add_option("scene", trade.scene, "scene file (TOML)")->required();
+  trade_cmd->add_option("--fixed", trade.fixed, "fixed steps [s], comma-separated (e.g. 1e-3,5e-4)")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
+  trade_cmd->add_option("--tol", trade.tolerances, "step-doubling tolerances, comma-separated (e.g. 1e-2,1e-3)")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
+  trade_cmd->add_option("--method", trade.method, "stepper (default: the scene's)")
+      ->check(CLI::IsMember({"verlet", "exact"}));
+  trade_cmd->add_option("--reference", trade.reference,
+                        "auto (a fixed step 1/8 of the smallest --fixed, checked at 1/16) or a reference.csv of an "
+                        "earlier trade (or a trajectories.csv of dem run)");
+  trade_cmd->add_option("--out", trade.out, "output folder (default: out/<scene-name>/trade)");
+  trade_cmd->add_option("--threads", trade.threads, "worker threads (default: the cores of the affinity mask)")
+      ->check(CLI::NonNegativeNumber);
+  trade_cmd->add_option("--until", trade.until, "simulated end time [s] (default: the scene's run.until)")
+      ->check(CLI::PositiveNumber);
+  trade_cmd->add_option("--set", trade.overrides, "override a scene value: key.path=value (repeatable)");
+  trade_cmd->add_flag("--quiet", trade.quiet, "no progress lines or table");
+  trade_cmd->add_flag("!--no-plot", trade.plot, "do not call bench/plot_trade.py");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -44,6 +68,7 @@ int main(int argc, char** argv) {
   }
   try {
     if (*run_cmd) return dem::cli::run_command(run);
+    if (*trade_cmd) return dem::cli::trade_command(trade);
     if (*check_cmd) return dem::cli::check_command(check_scene, check_overrides);
   } catch (const dem::InputError& e) {
     std::fprintf(stderr, "dem: error: %s\n", e.what());
