@@ -742,7 +742,9 @@ int trade_command(const TradeOptions& options) {
     }
     std::printf("metrics (units and meaning): %s\n", (out / "trade_metrics.txt").string().c_str());
   }
+  std::fflush(stdout);
   for (const std::string& w : warnings) std::fprintf(stderr, "dem trade: warning: %s\n", w.c_str());
+  std::fflush(stderr);
   if (options.plot) plot(options.scene, out, options.quiet);
   say("outputs in %s\n", out.string().c_str());
   return 0;

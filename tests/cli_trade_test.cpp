@@ -1,0 +1,333 @@
+// `dem trade` from the outside (run through std::system as a user would; only exit codes, messages and
+// files are looked at):
+//  - trade.csv has the documented columns and one row per setting (head_on, PHYSICS.md 6.2);
+//  - fixed velocity Verlet is second order: on a sphere oscillating on a plane wall (never separating, so
+//    no contact events) halving dt divides the trajectory error by about 4;
+//  - an unstable fixed step (seed slope at dt = 0.1 s, omega0 dt > 2) is a `diverged` row with infinite
+//    errors, and the command still exits 0;
+//  - malformed options and [accuracy] metrics are rejected with exit code 2 and a message naming them;
+//  - the reference check: a reference that diverges exits 1; a reference that is not converged (head_on's
+//    damped contact onset makes Verlet first order) is reported; a converged one is marked so;
+//  - a reference loaded from the reference.csv of an earlier run gives the same errors;
+//  - observables get a noise floor from perturbed reference runs.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#ifndef DEM_PROGRAM
+#error "DEM_PROGRAM (path of the dem executable) must be defined by tests/CMakeLists.txt"
+#endif
+#ifndef DEM_SOURCE_DIR
+#error "DEM_SOURCE_DIR (the repository root) must be defined by tests/CMakeLists.txt"
+#endif
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path source_dir{DEM_SOURCE_DIR};
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+struct Result {
+  int code = -1;
+  std::string out, err;
+};
+
+/// A fresh folder per test, removed afterwards.
+class TempDir {
+ public:
+  TempDir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = fs::temp_directory_path() /
+            ("dem_cli_trade_test_" + std::to_string(::getpid()) + "_" + info->test_suite_name() + "_" + info->name());
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ignored;
+    fs::remove_all(path_, ignored);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+/// Runs `dem trade <args>` from the source root (so scenes/... resolve); stdout and stderr captured.
+Result trade(const std::string& args, const TempDir& dir) {
+  const fs::path out = dir.path() / "stdout.txt", err = dir.path() / "stderr.txt";
+  const std::string command = "cd '" + source_dir.string() + "' && '" + std::string(DEM_PROGRAM) + "' trade " + args +
+                              " >'" + out.string() + "' 2>'" + err.string() + "'";
+  const int status = std::system(command.c_str());
+  Result r;
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = read_text(out);
+  r.err = read_text(err);
+  return r;
+}
+
+struct Csv {
+  std::vector<std::string> header;
+  std::vector<std::map<std::string, std::string>> rows;
+  double number(std::size_t row, const std::string& column) const {
+    const std::string& text = rows.at(row).at(column);
+    if (text == "inf") return INFINITY;
+    return std::stod(text);
+  }
+};
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> out;
+  std::string field;
+  std::istringstream in(line);
+  while (std::getline(in, field, ',')) out.push_back(field);
+  if (!line.empty() && line.back() == ',') out.emplace_back();
+  return out;
+}
+
+Csv read_csv(const fs::path& path) {
+  Csv csv;
+  std::ifstream in(path);
+  std::string line;
+  if (!std::getline(in, line)) return csv;
+  csv.header = split(line);
+  while (std::getline(in, line)) {
+    const std::vector<std::string> f = split(line);
+    std::map<std::string, std::string> row;
+    for (std::size_t k = 0; k < csv.header.size(); ++k) row[csv.header[k]] = k < f.size() ? f[k] : "";
+    csv.rows.push_back(row);
+  }
+  return csv;
+}
+
+const std::vector<std::string> trajectory_errors = {"position_max_error", "position_rms_error", "velocity_max_error",
+                                                    "velocity_rms_error"};
+
+/// A 1 kg sphere resting on a plane under gravity, released from half its equilibrium overlap without
+/// damping: it oscillates (omega = 100 rad/s) between 0.5 and 1.5 times the equilibrium overlap and never
+/// leaves the wall, so the motion is smooth and Verlet's global error is C dt^2.
+void write_oscillator(const fs::path& path) {
+  std::ofstream(path) << R"([scene]
+gravity = [0.0, 0.0, -9.81]
+max_initial_overlap = 0.05
+[[contacts]]
+normal_stiffness = 1e4
+normal_damping = { damping_ratio = 0.0 }
+[[walls]]
+type = "plane"
+[[particles]]
+position = [0.0, 0.0, 0.0495095]
+radius = 0.05
+mass = 1.0
+[integrator]
+dt = 1e-3
+[run]
+until = 0.1
+[output]
+interval = 0.01
+)";
+}
+
+TEST(CliTrade, WritesOneRowPerSettingWithTheDocumentedColumns) {
+  TempDir dir;
+  const Result r = trade("scenes/head_on.toml --fixed 1e-4,5e-5 --tol 1e-2,1e-3 --no-plot --out " + dir.path().string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Csv csv = read_csv(dir.path() / "trade.csv");
+  std::vector<std::string> expected = {"control",     "method",    "dt", "tolerance", "wall_time", "particle_steps",
+                                       "force_evaluations", "rejected_steps", "status"};
+  expected.insert(expected.end(), trajectory_errors.begin(), trajectory_errors.end());
+  EXPECT_EQ(csv.header, expected);
+  ASSERT_EQ(csv.rows.size(), 4u);
+  EXPECT_EQ(csv.rows[0].at("control"), "fixed");
+  EXPECT_EQ(csv.rows[1].at("control"), "fixed");
+  EXPECT_EQ(csv.rows[2].at("control"), "doubling");
+  EXPECT_EQ(csv.rows[3].at("control"), "doubling");
+  EXPECT_DOUBLE_EQ(csv.number(0, "dt"), 1e-4);
+  EXPECT_DOUBLE_EQ(csv.number(1, "dt"), 5e-5);
+  EXPECT_DOUBLE_EQ(csv.number(2, "tolerance"), 1e-2);
+  EXPECT_DOUBLE_EQ(csv.number(3, "tolerance"), 1e-3);
+  for (std::size_t k = 0; k < csv.rows.size(); ++k) {
+    EXPECT_EQ(csv.rows[k].at("method"), "verlet");
+    EXPECT_EQ(csv.rows[k].at("status"), "ok");
+    EXPECT_GT(csv.number(k, "particle_steps"), 0);
+    EXPECT_GE(csv.number(k, "force_evaluations"), csv.number(k, "particle_steps") / 2);
+    for (const std::string& e : trajectory_errors) {
+      EXPECT_GT(csv.number(k, e), 0) << e;
+      EXPECT_LT(csv.number(k, e), 1e-2) << e;
+    }
+  }
+  // 2 particles, 0.02 s at 1e-4 s: 400 particle-steps; half the step, twice the cost.
+  EXPECT_EQ(csv.number(0, "particle_steps"), 400);
+  EXPECT_EQ(csv.number(1, "particle_steps"), 800);
+  // The metrics are stated: in the output and in trade_metrics.txt, one row per error column.
+  EXPECT_NE(r.out.find("metrics: position_max, position_rms, velocity_max, velocity_rms"), std::string::npos) << r.out;
+  const Csv metrics = read_csv(dir.path() / "trade_metrics.txt");
+  ASSERT_EQ(metrics.rows.size(), 4u);
+  EXPECT_EQ(metrics.rows[0].at("metric"), "position_max");
+  EXPECT_EQ(metrics.rows[0].at("unit"), "m");
+  EXPECT_EQ(metrics.rows[2].at("unit"), "m/s");
+  EXPECT_TRUE(fs::exists(dir.path() / "reference.csv"));
+}
+
+TEST(CliTrade, FixedVerletErrorFallsAsDtSquared) {
+  TempDir dir;
+  write_oscillator(dir.path() / "oscillator.toml");
+  const Result r = trade((dir.path() / "oscillator.toml").string() + " --fixed 2e-3,1e-3 --no-plot --out " +
+                             (dir.path() / "out").string(),
+                         dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Csv csv = read_csv(dir.path() / "out" / "trade.csv");
+  ASSERT_EQ(csv.rows.size(), 2u);
+  for (const std::string& e : trajectory_errors) {
+    const double ratio = csv.number(0, e) / csv.number(1, e);
+    EXPECT_GT(ratio, 3.5) << e;  // 4 for an order-2 method
+    EXPECT_LT(ratio, 4.5) << e;
+  }
+  // The reference (dt / 8) is converged for these errors: 64 times smaller than the finer one's.
+  const Csv metrics = read_csv(dir.path() / "out" / "trade_metrics.txt");
+  for (const auto& row : metrics.rows) EXPECT_EQ(row.at("reference_converged"), "yes") << row.at("metric");
+  EXPECT_EQ(r.err.find("did not converge"), std::string::npos) << r.err;
+}
+
+TEST(CliTrade, UnstableStepIsADivergedRowAndExitsZero) {
+  TempDir dir;
+  const Result r = trade("scenes/seed_slope.toml --fixed 0.1,0.01 --no-plot --out " + dir.path().string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Csv csv = read_csv(dir.path() / "trade.csv");
+  ASSERT_EQ(csv.rows.size(), 2u);
+  EXPECT_EQ(csv.rows[0].at("status"), "diverged");
+  EXPECT_EQ(csv.rows[1].at("status"), "ok");
+  for (const std::string& e : trajectory_errors) {
+    EXPECT_TRUE(std::isinf(csv.number(0, e))) << e;
+    EXPECT_TRUE(std::isfinite(csv.number(1, e))) << e;
+  }
+}
+
+TEST(CliTrade, MalformedOptionsAreRejectedWithExitCode2) {
+  TempDir dir;
+  const std::string out = " --no-plot --out " + dir.path().string();
+  Result r = trade("scenes/head_on.toml --fixed 1e-4,abc" + out, dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--fixed"), std::string::npos) << r.err;
+  r = trade("scenes/head_on.toml --fixed -1e-4" + out, dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--fixed"), std::string::npos) << r.err;
+  r = trade("scenes/head_on.toml --tol 0" + out, dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--tol"), std::string::npos) << r.err;
+  r = trade("scenes/head_on.toml --fixed 1e-4 --method leapfrog" + out, dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--method"), std::string::npos) << r.err;
+  r = trade("scenes/head_on.toml" + out, dir);  // nothing to measure
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--fixed"), std::string::npos) << r.err;
+  r = trade("scenes/head_on.toml --fixed 1e-4,3e-5" + out, dir);  // 3e-5 does not divide 1e-4
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("does not divide"), std::string::npos) << r.err;
+  // [accuracy] is strict: an unknown metric is rejected with the valid list.
+  r = trade("scenes/head_on.toml --fixed 1e-4 --set 'accuracy.metrics=[\"trajectory\", \"bed_hight\"]'" + out, dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("unknown metric 'bed_hight'"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("trajectory, dissipated_energy, bed_height, kinetic_energy, wall_force"), std::string::npos) << r.err;
+  r = trade("scenes/head_on.toml --fixed 1e-4 --set accuracy.metric=trajectory" + out, dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("did you mean 'metrics'"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path() / "trade.csv"));
+}
+
+TEST(CliTrade, AReferenceThatDivergesExitsOne) {
+  TempDir dir;
+  // The reference is a fixed step of 0.8 / 8 = 0.1 s: unstable on the seed slope.
+  const Result r = trade("scenes/seed_slope.toml --fixed 0.8 --no-plot --out " + dir.path().string(), dir);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("reference run"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("diverged"), std::string::npos) << r.err;
+}
+
+TEST(CliTrade, AReferenceThatIsNotConvergedIsReported) {
+  TempDir dir;
+  // head_on's damped contact starts with a jump of the force between steps: Verlet is first order
+  // there, so a reference at dt / 8 is not a tenth of the error of the finest setting.
+  const Result r = trade("scenes/head_on.toml --fixed 1e-4,5e-5 --no-plot --out " + dir.path().string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("the reference did not converge for position_max"), std::string::npos) << r.err;
+  const Csv metrics = read_csv(dir.path() / "trade_metrics.txt");
+  ASSERT_FALSE(metrics.rows.empty());
+  EXPECT_EQ(metrics.rows[0].at("reference_converged"), "no");
+  EXPECT_GT(std::stod(metrics.rows[0].at("reference_error")), 0);
+}
+
+TEST(CliTrade, AReferenceFileGivesTheSameErrors) {
+  TempDir dir;
+  const std::string settings = "scenes/head_on.toml --fixed 1e-4,5e-5 --tol 1e-3 --no-plot --quiet";
+  ASSERT_EQ(trade(settings + " --out " + (dir.path() / "a").string(), dir).code, 0);
+  const Result r = trade(settings + " --reference " + (dir.path() / "a" / "reference.csv").string() + " --out " +
+                             (dir.path() / "b").string(),
+                         dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Csv a = read_csv(dir.path() / "a" / "trade.csv"), b = read_csv(dir.path() / "b" / "trade.csv");
+  ASSERT_EQ(a.rows.size(), 3u);
+  ASSERT_EQ(b.rows.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k)
+    for (const std::string& e : trajectory_errors) EXPECT_EQ(a.rows[k].at(e), b.rows[k].at(e)) << e;
+  EXPECT_EQ(read_text(dir.path() / "a" / "trade_metrics.txt"), read_text(dir.path() / "b" / "trade_metrics.txt"));
+  // A file that is not a reference is bad input.
+  const Result bad = trade(settings + " --reference " + (dir.path() / "a" / "trade_metrics.txt").string() + " --out " +
+                               (dir.path() / "c").string(),
+                           dir);
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("--reference"), std::string::npos) << bad.err;
+}
+
+TEST(CliTrade, ObservablesGetANoiseFloorFromPerturbedReferences) {
+  TempDir dir;
+  // The gap is moved off a whole number of reference steps: head_on's contact begins exactly at a step
+  // boundary of the reference (1 mm at 1 m/s), where a 1e-12 m perturbation decides in which step the
+  // contact is found, and the noise floor is rightly as large as a step's error.
+  const Result r = trade("scenes/head_on.toml --fixed 1e-4 --no-plot --set 'particles[0].position=[-0.050537,0,0]' "
+                         "--set 'accuracy.metrics=[\"dissipated_energy\", \"kinetic_energy\"]' --out " +
+                             dir.path().string(),
+                         dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Csv csv = read_csv(dir.path() / "trade.csv");
+  ASSERT_EQ(csv.rows.size(), 1u);
+  for (const char* m : {"dissipated_energy", "kinetic_energy"}) {
+    const std::string name(m);
+    ASSERT_TRUE(csv.rows[0].count(name + "_error")) << name;
+    ASSERT_TRUE(csv.rows[0].count(name + "_noise")) << name;
+    // 1e-9 relative perturbations of a 0.25 J collision: noise far below the error of dt = 1e-4.
+    EXPECT_LT(csv.number(0, name + "_noise"), 1e-6) << name;
+    EXPECT_GT(csv.number(0, name + "_error"), csv.number(0, name + "_noise")) << name;
+  }
+  const Csv metrics = read_csv(dir.path() / "trade_metrics.txt");
+  ASSERT_EQ(metrics.rows.size(), 2u);
+  EXPECT_EQ(metrics.rows[0].at("unit"), "J");
+}
+
+TEST(CliTrade, CallsThePlotScriptWhenMatplotlibIsThere) {
+  if (std::system("/usr/bin/python3 -c 'import matplotlib' >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "python3-matplotlib is not installed";
+  TempDir dir;
+  const Result r = trade("scenes/head_on.toml --fixed 1e-4,5e-5 --tol 1e-3 --quiet --out " + dir.path().string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir.path() / "trade.png")) << r.err;
+}
+
+}  // namespace
