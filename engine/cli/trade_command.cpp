@@ -24,7 +24,8 @@
 //
 // A setting whose run goes non-finite or fails the energy audit of `dem run` (energy appearing beyond
 // the work put in, or overlaps beyond half a radius) is a row with status `diverged` and infinite
-// errors; the command still exits 0. A failing reference exits 1; bad options or scenes exit 2.
+// errors (a setting the World refuses to build is `failed`, likewise); the command still exits 0. A
+// failing reference exits 1; bad options or scenes exit 2.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
