@@ -112,6 +112,7 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
         fresh.history[k] = contacts.history[old];
         fresh.work[k] = contacts.work[old];
         fresh.elastic[k] = contacts.elastic[old];
+        fresh.overlap[k] = contacts.overlap[old];
         ++old;
         continue;
       }
@@ -122,6 +123,7 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
       fresh.history[k] = ContactHistory{};
       fresh.work[k] = 0;
       fresh.elastic[k] = 0;
+      fresh.overlap[k] = 0;
     }
     for (; old < old_end; ++old) ended += contacts.work[old] - contacts.elastic[old];
     work.row_ended[a] = ended;
@@ -162,6 +164,7 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
           fresh.history[slot] = contacts.history[old];
           fresh.work[slot] = contacts.work[old];
           fresh.elastic[slot] = contacts.elastic[old];
+          fresh.overlap[slot] = contacts.overlap[old];
         } else {
           const EffectiveMasses m = effective_masses(s.inv_mass[p], s.inv_inertia[p], s.radius[p], 0, 0,
                                                      std::numeric_limits<Real>::infinity());
@@ -169,6 +172,7 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
           fresh.history[slot] = ContactHistory{};
           fresh.work[slot] = 0;
           fresh.elastic[slot] = 0;
+          fresh.overlap[slot] = 0;
         }
         ++slot;
       }
