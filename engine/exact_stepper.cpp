@@ -320,10 +320,12 @@ void pair_flow(State& s, ExactInteraction& k, const ExactSettings& set, Real tau
 }
 
 /// A flat wall feature (plane, box face) in the frame moving with the wall's velocity at the contact
-/// point, frozen over tau: the normal does not turn, so the exact normal flow is the whole flow.
+/// point, frozen over tau: the normal does not turn, so the exact normal flow is the whole normal flow.
+/// With friction or rolling resistance the tangential and rolling channel follows exact_friction.h
+/// over sub-steps of at most half a radian of the normal oscillator, each under its mean normal force.
 /// Returns the frame's velocity.
 Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const ExactSettings& set, Real tau,
-                    const WallTouch& t, Real pad) {
+                    const WallTouch& t, Real pad, Real start_time) {
   const ParticleIndex p = k.i;
   const Vec3 g = gravity_of(s, p, set.gravity);
   const Vec3 n = t.normal;
@@ -332,14 +334,53 @@ Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const Exa
   const Vec3 u = s.velocity[p] - v_wall;
   const NormalState start{overlap, -u.dot(n)};
   const Real a = -g.dot(n);
-  const NormalState after = advance_normal(k.oscillator, set.separation, a, start, tau, nullptr, k.half_step);
   const NormalOscillator& o = k.oscillator;
-  k.dissipated += k.effective_mass * (normal_energy(o, a, start, pushes(o, set.separation, start)) -
-                                      normal_energy(o, a, after, pushes(o, set.separation, after)));
   const Vec3 u_t = u + start.rate * n;
   const Vec3 g_t = g - g.dot(n) * n;
-  s.position[p] += tau * v_wall + (start.delta - after.delta) * n + tau * u_t + (0.5 * tau * tau) * g_t;
-  s.velocity[p] = v_wall - after.rate * n + u_t + tau * g_t;
+  if (!set.friction && set.rolling == RollingKind::none) {
+    const NormalState after = advance_normal(o, set.separation, a, start, tau, nullptr, k.half_step);
+    k.dissipated += k.effective_mass * (normal_energy(o, a, start, pushes(o, set.separation, start)) -
+                                        normal_energy(o, a, after, pushes(o, set.separation, after)));
+    s.position[p] += tau * v_wall + (start.delta - after.delta) * n + tau * u_t + (0.5 * tau * tau) * g_t;
+    s.velocity[p] = v_wall - after.rate * n + u_t + tau * g_t;
+    return v_wall;
+  }
+  const Vec3 w_wall = walls.angular_velocity(k.wall);
+  const LawConstants& lc = k.constants;
+  TangentialConstants c{s.inv_mass[p], s.inv_inertia[p], s.radius[p], set.friction, set.rolling,
+                        lc.k_t, lc.c_t, lc.mu, lc.mu_s, lc.k_r, lc.c_r, lc.mu_r, lc.mu_rs, lc.r_star};
+  TangentialState ts{u_t, s.angular_velocity[p] - w_wall, Vec3::Zero()};
+  const Vec3 x0 = s.position[p];
+  const int pieces = std::clamp(static_cast<int>(std::ceil(tau * o.omega0 / 0.5)), 1, 64);
+  const Real piece = tau / pieces;
+  NormalState ns = start;
+  for (int j = 0; j < pieces; ++j) {
+    const NormalState ne = advance_normal(o, set.separation, a, ns, piece);
+    // The mean normal force over the sub-step from its exact impulse: m* (a t - change of delta').
+    const Real load = std::max(Real{0}, k.effective_mass * (a * piece - (ne.rate - ns.rate)) / piece);
+    c.arm = s.radius[p] - 0.5 * std::max(Real{0}, 0.5 * (ns.delta + ne.delta));
+    TangentialEvents events;
+    k.dissipated += advance_tangential(c, n, load, g_t, piece, ts, k.history, &events);
+    for (int e = 0; e < events.count; ++e) {
+      const TangentialEvent& ev = events.event[e];
+      const Real since = j * piece + ev.time;
+      const NormalState at = advance_normal(o, set.separation, a, ns, ev.time);
+      if (k.event_count < ExactInteraction::event_capacity)
+        k.events[k.event_count] = {start_time + since, p, k.wall, ev.mode,
+                                   x0 + since * v_wall + (start.delta - at.delta) * n + ev.state.displacement,
+                                   v_wall - at.rate * n + ev.state.velocity, w_wall + ev.state.spin};
+      ++k.event_count;
+    }
+    ns = ne;
+  }
+  const NormalState& after = ns;
+  k.dissipated += k.effective_mass * (normal_energy(o, a, start, pushes(o, set.separation, start)) -
+                                      normal_energy(o, a, after, pushes(o, set.separation, after)));
+  s.position[p] += tau * v_wall + (start.delta - after.delta) * n + ts.displacement;
+  s.velocity[p] = v_wall - after.rate * n + ts.velocity;
+  s.angular_velocity[p] = w_wall + ts.spin;
+  // The record lasts while the geometric overlap does (PHYSICS.md 1.1).
+  if (!(after.delta > 0)) k.history = ContactHistory{};
   return v_wall;
 }
 
@@ -366,7 +407,8 @@ Vec3 cylinder_flow(State& s, const Walls& walls, ExactInteraction& k, const Exac
 
 /// P_k(tau) for a particle against a wall (infinite mass). Also books the work the wall did on the
 /// particle: the frame's velocity times the contact impulse m (dv - g tau), exact for the flow's wall.
-void wall_flow(State& s, const Walls& walls, ExactInteraction& k, const ExactSettings& set, Real tau) {
+void wall_flow(State& s, const Walls& walls, ExactInteraction& k, const ExactSettings& set, Real tau,
+               Real start_time) {
   const ParticleIndex p = k.i;
   const Vec3 g = gravity_of(s, p, set.gravity);
   const Real r = s.radius[p];
@@ -377,16 +419,18 @@ void wall_flow(State& s, const Walls& walls, ExactInteraction& k, const ExactSet
   WallTouch t;
   if (!walls.touch(k.wall, k.feature, s.position[p], r + pad, t)) {
     free_flight(s, p, set.gravity, tau);
+    k.history = ContactHistory{};  // no overlap: the record ends
     return;
   }
   const Vec3 v_frame = walls.config(k.wall).kind == WallKind::cylinder ? cylinder_flow(s, walls, k, set, tau)
-                                                                       : flat_wall_flow(s, walls, k, set, tau, t, pad);
+                                                                       : flat_wall_flow(s, walls, k, set, tau, t, pad, start_time);
   k.work += v_frame.dot((s.velocity[p] - v0) - tau * g) / s.inv_mass[p];
 }
 
-void flow(State& s, const Walls& walls, ExactInteraction& k, const ExactSettings& set, Real tau) {
+/// P_k(tau) from start_time [s] (the time the flow's start state belongs to, for the mode events).
+void flow(State& s, const Walls& walls, ExactInteraction& k, const ExactSettings& set, Real tau, Real start_time) {
   if (k.wall == ExactInteraction::no_wall) pair_flow(s, k, set, tau);
-  else wall_flow(s, walls, k, set, tau);
+  else wall_flow(s, walls, k, set, tau, start_time);
 }
 
 /// Free drift of the particles of interaction k over t.
@@ -406,6 +450,13 @@ std::uint64_t wall_partner(std::size_t w, std::uint32_t f) { return 0x80000000u 
 
 bool forced_contains(const std::vector<std::uint64_t>& forced, std::uint64_t key) {
   return std::binary_search(forced.begin(), forced.end(), key);
+}
+
+/// The history a wall contact carried out of the previous step, or a fresh one.
+ContactHistory history_of(const ExactWorkspace& work, std::uint64_t key) {
+  const auto it = std::lower_bound(work.history.begin(), work.history.end(), key,
+                                   [](const ExactHistoryRecord& r, std::uint64_t x) { return r.key < x; });
+  return it != work.history.end() && it->key == key ? it->history : ContactHistory{};
 }
 
 void collect_interactions(const State& s, const Walls& walls, const MaterialTable& materials,
@@ -449,7 +500,7 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
           effective_masses(s.inv_mass[a], s.inv_inertia[a], s.radius[a], s.inv_mass[b], s.inv_inertia[b], s.radius[b]);
       const LawConstants c = materials.constants(materials.pair_class(s.material[a], s.material[b]), m);
       work.interactions[slot++] = {a, b, ExactInteraction::no_wall, 0, oscillator_of(c, m.m_star), c.k_n, m.m_star, 0, 0,
-                                   nullptr};
+                                   nullptr, c, ContactHistory{}, 0, {}};
     }
     for (std::size_t w = 0; w < walls.count(); ++w)
       for (std::uint32_t f = 0; f < walls.feature_count(w); ++f) {
@@ -458,7 +509,8 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
                                                    std::numeric_limits<Real>::infinity());
         const LawConstants c = materials.constants(materials.pair_class(s.material[a], walls.material(w)), m);
         work.interactions[slot++] = {a, a, static_cast<std::uint32_t>(w), f, oscillator_of(c, m.m_star), c.k_n,
-                                     m.m_star, 0, 0, nullptr};
+                                     m.m_star, 0, 0, nullptr, c, history_of(work, interaction_key(a, wall_partner(w, f))),
+                                     0, {}};
       }
   });
 }
@@ -512,6 +564,24 @@ void find_missed(const State& s, const Walls& walls, const broadphase::Candidate
 
 Real compose(State& s, Walls& walls, const ExactSettings& set, Real t, Real h, ExactWorkspace& work);
 
+/// After an accepted step: the wall contacts' histories for the next step (the interactions are in key
+/// order), and their mode switches appended in time order if recorded. Serial.
+void keep_histories(ExactWorkspace& work) {
+  work.history.clear();
+  const std::size_t first_event = work.events.size();
+  for (const ExactInteraction& k : work.interactions) {
+    if (k.wall == ExactInteraction::no_wall) continue;
+    const ContactHistory& h = k.history;
+    if (h.mode != 0 || h.tangential_spring != Vec3::Zero() || h.rolling_spring != Vec3::Zero())
+      work.history.push_back({key_of(k), h});
+    if (work.record_events)
+      for (int e = 0; e < std::min<int>(k.event_count, ExactInteraction::event_capacity); ++e)
+        work.events.push_back(k.events[e]);
+  }
+  std::stable_sort(work.events.begin() + static_cast<std::ptrdiff_t>(first_event), work.events.end(),
+                   [](const ExactModeEvent& x, const ExactModeEvent& y) { return x.time < y.time; });
+}
+
 std::uint64_t bits_of(Real x) {
   std::uint64_t b;
   std::memcpy(&b, &x, sizeof b);
@@ -537,13 +607,18 @@ void attach_coefficients(ExactWorkspace& work, Real tau) {
 }  // namespace
 
 Real exact_step(State& s, Walls& walls, const MaterialTable& materials,
-                const broadphase::CandidatePairs& candidates, const ExactSettings& set, Real t, Real h,
+                const broadphase::CandidatePairs& candidates, const ExactSettings& settings, Real t, Real h,
                 ExactWorkspace& work) {
+  ExactSettings set = settings;
+  set.friction = materials.any_friction();
+  set.rolling = materials.any_rolling() ? work.rolling : RollingKind::none;
+  const bool tangential = set.friction || set.rolling != RollingKind::none;
   // A contact that the anticipation missed (another contact changed a velocity within the step)
   // would start the next step overlapped, with energy from nothing: redo the step from the saved
   // state with the missed contacts included, until none is missed.
   work.saved_position = s.position;
   work.saved_velocity = s.velocity;
+  if (tangential) work.saved_angular_velocity = s.angular_velocity;
   work.forced.clear();
   for (int attempt = 0;; ++attempt) {
     walls.set_time(t);
@@ -558,6 +633,7 @@ Real exact_step(State& s, Walls& walls, const MaterialTable& materials,
       std::sort(work.forced.begin(), work.forced.end());
       s.position = work.saved_position;
       s.velocity = work.saved_velocity;
+      if (tangential) s.angular_velocity = work.saved_angular_velocity;
       ++work.retries;
       continue;
     }
@@ -565,6 +641,7 @@ Real exact_step(State& s, Walls& walls, const MaterialTable& materials,
     if (!missed.empty()) ++work.unresolved;
     work.wall_work +=
         block_sum<Real>(work.interactions.size(), [&](std::size_t k) { return work.interactions[k].work; });
+    if (tangential) keep_histories(work);
     return dissipated;
   }
 }
@@ -589,9 +666,9 @@ Real compose(State& s, Walls& walls, const ExactSettings& set, Real t, Real h, E
       ExactInteraction& k = work.interactions[col.contact[col.start[c] + e]];
       if (adjoint) {
         drift(s, k, set.gravity, -half);
-        flow(s, walls, k, set, half);
+        flow(s, walls, k, set, half, t + half);
       } else {
-        flow(s, walls, k, set, half);
+        flow(s, walls, k, set, half, t);
         drift(s, k, set.gravity, -half);
       }
     });

@@ -24,7 +24,14 @@
 //    the normal of a flat feature (exact for planes and box faces, not for a solid box's edges);
 //  - a contact the step's anticipation missed makes it redo the step with that contact included, up to
 //    max_retries times; a contact still missed then is accepted and counted in `unresolved`.
-// Friction and rolling resistance are not handled here yet (the World refuses them).
+// Friction and rolling resistance (exact_friction.h) are handled on flat wall features (planes, box
+// faces): the wall flow is cut into sub-steps of at most half a radian of the normal oscillator, the
+// normal channel is the exact normal flow, and over each sub-step the tangential and rolling channel
+// is advanced exactly in its modes, split at the mode switches, under the sub-step's mean normal force
+// (its exact normal impulse over the sub-step) and the lever arm at the mean overlap. That is exact for
+// a contact whose normal force is steady (a ball rolling on a slope) and first order in the sub-step
+// when the normal force varies within it (an impact). Pair contacts and cylinder walls stay
+// frictionless here: the World refuses friction with method exact where those can occur.
 // Threading: interactions of one colour run in parallel, each writing only its two particles and
 // its own slot; colours, pairs and sums are in fixed orders, so results do not depend on threads.
 #include <cstdint>
@@ -33,6 +40,8 @@
 
 #include "broadphase/candidate_pairs.h"
 #include "engine/coloring.h"
+#include "engine/contact_law.h"
+#include "engine/exact_friction.h"
 #include "engine/materials.h"
 #include "engine/normal_flow.h"
 #include "engine/propagator.h"
@@ -40,6 +49,23 @@
 #include "engine/walls.h"
 
 namespace dem {
+
+/// A mode switch of a wall contact found inside a step (PHYSICS.md 1.5), with the particle's state at it.
+struct ExactModeEvent {
+  Real time;             // [s]
+  ParticleIndex particle;
+  std::uint32_t wall;
+  std::uint8_t mode;     // ContactMode bits after the switch
+  Vec3 position;         // [m]
+  Vec3 velocity;         // [m/s]
+  Vec3 angular_velocity; // [rad/s]
+};
+
+/// Tangential and rolling history of a wall contact, kept by the exact stepper between steps.
+struct ExactHistoryRecord {
+  std::uint64_t key;  // interaction key: particle slot, wall feature
+  ContactHistory history;
+};
 
 /// One pair or wall contact taking part in an exact step.
 struct ExactInteraction {
@@ -53,6 +79,11 @@ struct ExactInteraction {
   Real dissipated;          // energy lost in this step [J]
   Real work;                // work the wall did on the particle in this step [J]; 0 for pairs
   const PropagatorCoefficients* half_step;  // table entry for h/2, or nullptr
+  LawConstants constants;   // friction and rolling constants (wall contacts)
+  ContactHistory history;   // tangential and rolling springs and mode, carried through the step
+  std::uint8_t event_count;  // mode switches found in this step (at most event_capacity kept)
+  ExactModeEvent events[4];
+  static constexpr std::uint8_t event_capacity = 4;
 
   static constexpr std::uint32_t no_wall = 0xffffffffu;
 };
@@ -63,7 +94,7 @@ struct ExactWorkspace {
   std::vector<ParticleIndex> edge_i, edge_j;
   ContactColoring coloring;
   std::vector<std::uint64_t> forced;             // interactions a retry must include (sorted keys)
-  std::vector<Vec3> saved_position, saved_velocity;  // the state a retry restarts from
+  std::vector<Vec3> saved_position, saved_velocity, saved_angular_velocity;  // the state a retry restarts from
   std::uint64_t retries = 0;                       // steps redone because a contact was missed
   std::uint64_t unresolved = 0;  // steps accepted with a contact still missed after max_retries
   Real wall_work = 0;            // work done by moving walls on the particles, summed over steps [J]
@@ -75,6 +106,11 @@ struct ExactWorkspace {
   PropagatorTable table;
   Real table_step = 0;
   static constexpr std::size_t table_capacity = 1 << 16;
+  // Friction and rolling resistance on wall contacts (exact_friction.h).
+  RollingKind rolling = RollingKind::standard;  // rolling variant when the materials have rolling resistance
+  std::vector<ExactHistoryRecord> history;      // wall contacts' histories, sorted by key
+  bool record_events = false;                   // append every mode switch to `events`
+  std::vector<ExactModeEvent> events;           // mode switches in time order per step (if recorded)
 };
 
 struct ExactSettings {
@@ -82,6 +118,9 @@ struct ExactSettings {
   Vec3 gravity;
   int dimension;
   bool use_table = true;  // false: coefficients computed inline at every flow (for benchmarks)
+  // Set by exact_step from the materials and ExactWorkspace::rolling (callers leave the defaults).
+  bool friction = false;                     // tangential spring-slider on wall contacts
+  RollingKind rolling = RollingKind::none;   // rolling resistance on wall contacts
 };
 
 /// A pair joins a step's interactions when its gap is within this many times the free relative

@@ -534,10 +534,13 @@ bool read_integrator(TableReader& top, Scene& scene) {
   r.finish();
   if (c.method == Method::exact)
     for (const ContactConfig& contact : scene.world.contacts)
-      if (contact.sliding_friction > 0 || contact.static_friction > 0 || contact.rolling_friction > 0 ||
-          contact.rolling_static_friction > 0)
-        r.fail("method", "method = \"exact\" handles frictionless contacts so far: this scene has friction or "
-                         "rolling resistance; use method = \"verlet\"");
+      if ((contact.sliding_friction > 0 || contact.static_friction > 0 || contact.rolling_friction > 0 ||
+           contact.rolling_static_friction > 0) &&
+          (scene.world.particles.size() > 1 || c.control == Control::doubling ||
+           std::any_of(scene.world.walls.begin(), scene.world.walls.end(),
+                       [](const WallConfig& w) { return w.kind == WallKind::cylinder; })))
+        r.fail("method", "method = \"exact\" handles friction and rolling resistance only for one particle on flat "
+                         "walls (plane, box) with control = \"fixed\" so far; use method = \"verlet\"");
   return level_max_given;
 }
 

@@ -1,0 +1,295 @@
+#include "engine/exact_friction.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+namespace dem {
+namespace {
+
+using Mat7 = Eigen::Matrix<Real, 7, 7>;
+using Planar = Eigen::Matrix<Real, 5, 2>;  // rows: x, v, w, xi, theta; columns: directions 1 and 2
+using Vec2 = Eigen::Matrix<Real, 2, 1>;
+enum Row { X = 0, V = 1, W = 2, XI = 3, TH = 4 };
+
+/// exp(m) by scaling and squaring with a Taylor polynomial of degree 18 on norm <= 1/2 (truncation
+/// below 1e-21 relative): deterministic and good to round-off for the small, stable systems here.
+Mat7 exponential(const Mat7& m) {
+  const Real norm = m.cwiseAbs().rowwise().sum().maxCoeff();
+  int squarings = 0;
+  if (norm > 0.5) squarings = std::min(1000, static_cast<int>(std::ceil(std::log2(norm / 0.5))));
+  const Mat7 a = std::ldexp(Real{1}, -squarings) * m;
+  Mat7 result = Mat7::Identity(), term = Mat7::Identity();
+  for (int k = 1; k <= 18; ++k) {
+    term = (term * a) / static_cast<Real>(k);
+    result += term;
+  }
+  for (int k = 0; k < squarings; ++k) result = result * result;
+  return result;
+}
+
+/// One mode piece: which springs act and the frozen kinetic force and torque.
+struct Piece {
+  bool stick = false;  // tangential spring-dashpot acts (else the kinetic force, possibly 0)
+  bool hold = false;   // rolling spring-dashpot acts (else the kinetic torque, possibly 0)
+  Vec2 force = Vec2::Zero();   // kinetic tangential force, planar [N]
+  Vec2 moment = Vec2::Zero();  // kinetic rolling torque, planar [N m]
+};
+
+struct Limits {
+  Real stick, slide, hold, roll;  // mu_s F_n, mu F_n, mu_rs R* F_n, mu_r R* F_n
+};
+
+Vec2 slip(const Planar& y, Real arm) { return Vec2(y.row(V).transpose() - arm * y.row(W).transpose()); }
+
+Vec2 along(const Vec2& v, Real magnitude) {
+  const Real norm = v.norm();
+  return norm > 0 ? Vec2(v * (magnitude / norm)) : Vec2(Vec2::Zero());
+}
+
+bool rolling_active(const TangentialConstants& c, std::uint8_t mode) {
+  if (c.rolling == RollingKind::none) return false;
+  return !(c.rolling == RollingKind::seed && c.friction && (mode & mode_sliding));
+}
+
+/// Mode corrections at the start of a call, as the law decides them from the state (a new contact,
+/// or a load that changed between sub-steps). The tolerance keeps a state put on a threshold by a
+/// root in the previous call from switching again.
+void settle(const TangentialConstants& c, const Limits& lim, Planar& y, std::uint8_t& mode) {
+  constexpr Real tol = 1 + 1e-12;
+  if (c.friction) {
+    const Real spring = c.k_t * Vec2(y.row(XI).transpose()).norm();
+    const Real u = slip(y, c.arm).norm();
+    if (!(mode & mode_sliding)) {
+      if (!(lim.stick > 0) || spring > tol * lim.stick || c.c_t * u > tol * lim.stick) mode |= mode_sliding;
+    } else if (u == 0 && lim.stick > 0 && spring <= lim.stick) {
+      mode &= static_cast<std::uint8_t>(~mode_sliding);
+    }
+  } else {
+    mode |= mode_sliding;
+    y.row(XI).setZero();
+  }
+  if (c.rolling == RollingKind::none) return;
+  if (!rolling_active(c, mode)) {
+    mode |= mode_rolling;
+    y.row(TH).setZero();
+    return;
+  }
+  const Real w = Vec2(y.row(W).transpose()).norm();
+  if (!(mode & mode_rolling)) {
+    const Real spring = c.k_r * Vec2(y.row(TH).transpose()).norm();
+    if (!(lim.hold > 0) || spring > tol * lim.hold || c.c_r * w > tol * lim.hold) mode |= mode_rolling;
+  } else if (w == 0 && lim.hold > 0) {
+    mode &= static_cast<std::uint8_t>(~mode_rolling);
+    y.row(TH).setZero();
+  }
+}
+
+Piece piece_of(const TangentialConstants& c, const Limits& lim, const Planar& y, std::uint8_t mode) {
+  Piece p;
+  p.stick = c.friction && !(mode & mode_sliding);
+  if (c.friction && !p.stick) {
+    const Vec2 u = slip(y, c.arm);
+    p.force = u.norm() > 0 ? along(u, -lim.slide) : along(Vec2(y.row(XI).transpose()), -lim.slide);
+  }
+  if (rolling_active(c, mode)) {
+    p.hold = !(mode & mode_rolling);
+    if (!p.hold) {
+      const Vec2 w = y.row(W).transpose();
+      p.moment = w.norm() > 0 ? along(w, -lim.roll) : along(Vec2(y.row(TH).transpose()), -lim.roll);
+    }
+  }
+  return p;
+}
+
+/// The generator [[A, B], [0, 0]] of the piece (PHYSICS.md 1.3, 1.4 in planar form; see the header).
+Mat7 generator(const TangentialConstants& c, const Piece& p, const Vec2& g) {
+  Mat7 m = Mat7::Zero();
+  m(X, V) = 1;
+  for (int d = 0; d < 2; ++d) m(V, 5 + d) = g(d);
+  if (p.stick) {
+    Eigen::Matrix<Real, 1, 5> f = Eigen::Matrix<Real, 1, 5>::Zero();  // F = -k_t xi - c_t (v - a w)
+    f(V) = -c.c_t;
+    f(W) = c.c_t * c.arm;
+    f(XI) = -c.k_t;
+    m.block<1, 5>(V, 0) += c.inv_mass * f;
+    m.block<1, 5>(W, 0) += (-c.arm * c.inv_inertia) * f;
+    m(XI, V) = 1;
+    m(XI, W) = -c.arm;
+  } else {
+    for (int d = 0; d < 2; ++d) {
+      m(V, 5 + d) += c.inv_mass * p.force(d);
+      m(W, 5 + d) += -c.arm * c.inv_inertia * p.force(d);
+    }
+  }
+  if (p.hold) {
+    m(W, TH) += -c.k_r * c.inv_inertia;
+    m(W, W) += -c.c_r * c.inv_inertia;
+    m(TH, W) = 1;
+  } else {
+    for (int d = 0; d < 2; ++d) m(W, 5 + d) += c.inv_inertia * p.moment(d);
+  }
+  return m;
+}
+
+Planar apply(const Mat7& e, const Planar& y) { return e.topLeftCorner<5, 5>() * y + e.topRightCorner<5, 2>(); }
+
+/// Which switches have fired in state y (bits: 1 stick->slide, 2 slide->stick, 4 static->roll,
+/// 8 roll->static) and the largest switching function, scaled by its limit (> 0: fired).
+struct Switching {
+  Real value;
+  unsigned fired;
+};
+
+Switching switching(const TangentialConstants& c, const Limits& lim, const Piece& p, std::uint8_t mode,
+                    const Planar& y) {
+  Switching s{-1, 0};
+  auto add = [&](Real value, unsigned bit) {
+    s.value = std::max(s.value, value);
+    if (value > 0) s.fired |= bit;
+  };
+  const Vec2 u = slip(y, c.arm), w = y.row(W).transpose();
+  if (p.stick) {
+    add(c.k_t * Vec2(y.row(XI).transpose()).norm() / lim.stick - 1, 1);
+    add(c.c_t * u.norm() / lim.stick - 1, 1);
+  } else if (c.friction && lim.slide > 0 && p.force.norm() > 0) {
+    add(u.dot(p.force) / (lim.slide * lim.slide), 2);  // the slip turned towards the kinetic force
+  }
+  if (p.hold) {
+    add(c.k_r * Vec2(y.row(TH).transpose()).norm() / lim.hold - 1, 4);
+    add(c.c_r * w.norm() / lim.hold - 1, 4);
+  } else if (rolling_active(c, mode) && lim.roll > 0 && p.moment.norm() > 0) {
+    add(w.dot(p.moment) / (lim.roll * lim.roll), 8);
+  }
+  return s;
+}
+
+/// Fastest rate of the piece [1/s], for the sampling that brackets the switches.
+Real fastest_rate(const TangentialConstants& c, const Piece& p) {
+  Real rate = 0;
+  if (p.stick) {
+    const Real inv_mt = c.inv_mass + c.arm * c.arm * c.inv_inertia;
+    rate += std::sqrt(c.k_t * inv_mt) + c.c_t * inv_mt;
+  }
+  if (p.hold) rate += std::sqrt(c.k_r * c.inv_inertia) + c.c_r * c.inv_inertia;
+  return rate;
+}
+
+Real energy(const TangentialConstants& c, const Planar& y, const Vec2& g) {
+  Real e = 0;
+  for (int d = 0; d < 2; ++d) {
+    if (c.inv_mass > 0) e += (0.5 * y(V, d) * y(V, d) - g(d) * y(X, d)) / c.inv_mass;
+    if (c.inv_inertia > 0) e += 0.5 * y(W, d) * y(W, d) / c.inv_inertia;
+    if (c.friction) e += 0.5 * c.k_t * y(XI, d) * y(XI, d);
+    if (c.rolling != RollingKind::none) e += 0.5 * c.k_r * y(TH, d) * y(TH, d);
+  }
+  return e;
+}
+
+/// Makes the springs of the kinetic channels consistent with their kinetic responses (the law's reset).
+void reset_kinetic_springs(const TangentialConstants& c, const Piece& p, std::uint8_t mode, Planar& y) {
+  if (c.friction && !p.stick) y.row(XI) = (-p.force / c.k_t).transpose();
+  if (rolling_active(c, mode) && !p.hold) y.row(TH) = (-p.moment / c.k_r).transpose();
+}
+
+}  // namespace
+
+Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, const Vec3& g_t, Real tau,
+                        TangentialState& s, ContactHistory& history, TangentialEvents* events) {
+  // Tangent basis: e1 from a fixed axis, so an in-plane (2-D) wall keeps direction 2 along z.
+  const Vec3 axis = std::abs(n.x()) < 0.9 ? Vec3(Vec3::UnitX()) : Vec3(Vec3::UnitY());
+  const Vec3 e1 = (axis - axis.dot(n) * n).normalized(), e2 = n.cross(e1);
+  const Real spin_n = s.spin.dot(n);
+  Planar y;
+  y.col(0) << 0, s.velocity.dot(e1), s.spin.dot(e2), history.tangential_spring.dot(e1), history.rolling_spring.dot(e2);
+  y.col(1) << 0, s.velocity.dot(e2), -s.spin.dot(e1), history.tangential_spring.dot(e2),
+      -history.rolling_spring.dot(e1);
+  const Vec2 g(g_t.dot(e1), g_t.dot(e2));
+  const Real f_n = std::max(load, Real{0});
+  const Limits lim{c.mu_s * f_n, c.mu * f_n, c.mu_rs * c.r_star * f_n, c.mu_r * c.r_star * f_n};
+  std::uint8_t mode = history.mode;
+  const Real e_start = energy(c, y, g);
+  settle(c, lim, y, mode);
+  const Real e_settled = energy(c, y, g);
+
+  auto to_state = [&](const Planar& z, TangentialState& out) {
+    out.velocity = z(V, 0) * e1 + z(V, 1) * e2;
+    out.spin = spin_n * n - z(W, 1) * e1 + z(W, 0) * e2;
+    out.displacement = s.displacement + z(X, 0) * e1 + z(X, 1) * e2;
+  };
+
+  constexpr int max_events = 16;
+  Real done = 0;
+  int switches = 0;
+  Piece p = piece_of(c, lim, y, mode);
+  while (done < tau) {
+    const Real left = tau - done;
+    const Mat7 gen = generator(c, p, g);
+    const bool can_switch = switches < max_events;
+    // Bracket the first switch by sampling at a quarter of the fastest period (a linear piece needs
+    // one interval: its switching functions are monotone).
+    const Real rate = fastest_rate(c, p);
+    const int samples = can_switch ? std::clamp(static_cast<int>(std::ceil(left * rate / (0.25 * pi))), 1, 4096) : 1;
+    const Real dt = left / samples;
+    const Mat7 step = exponential(dt * gen);
+    Planar before = y;
+    int fired_at = -1;
+    for (int k = 0; k < samples; ++k) {
+      const Planar after = k + 1 == samples ? apply(exponential(left * gen), y) : apply(step, before);
+      if (can_switch && switching(c, lim, p, mode, after).value > 0) {
+        fired_at = k;
+        break;
+      }
+      before = after;
+    }
+    if (fired_at < 0) {
+      y = before;
+      reset_kinetic_springs(c, p, mode, y);
+      break;
+    }
+    // Bisect [lo, hi] (times from `before`) down to round-off; the switch is at hi, where it has fired.
+    const Real start = fired_at * dt;
+    Real lo = 0, hi = fired_at + 1 == samples ? left - start : dt;
+    for (int it = 0; it < 200; ++it) {
+      const Real mid = lo + 0.5 * (hi - lo);
+      if (!(mid > lo && mid < hi)) break;
+      if (switching(c, lim, p, mode, apply(exponential(mid * gen), before)).value > 0) hi = mid;
+      else lo = mid;
+    }
+    y = apply(exponential(hi * gen), before);
+    const unsigned fired = switching(c, lim, p, mode, y).fired;
+    done += start + hi;
+    reset_kinetic_springs(c, p, mode, y);
+    if (fired & 1) mode |= mode_sliding;
+    if (fired & 2) mode &= static_cast<std::uint8_t>(~mode_sliding);
+    if (fired & 4) mode |= mode_rolling;
+    if (fired & 8) {
+      mode &= static_cast<std::uint8_t>(~mode_rolling);
+      y.row(TH).setZero();  // the hold starts unloaded (contact_law.h rolling_spring)
+    }
+    if (c.rolling != RollingKind::none && !rolling_active(c, mode)) {
+      mode |= mode_rolling;
+      y.row(TH).setZero();
+    }
+    ++switches;
+    p = piece_of(c, lim, y, mode);
+    reset_kinetic_springs(c, p, mode, y);  // a new slide or roll starts consistent with its response
+    if (events && events->count < TangentialEvents::capacity) {
+      TangentialEvent& e = events->event[events->count++];
+      e.time = done;
+      e.mode = mode;
+      to_state(y, e.state);
+    }
+  }
+  const Real e_end = energy(c, y, g);
+  TangentialState out;
+  to_state(y, out);
+  s = out;
+  history.tangential_spring = y(XI, 0) * e1 + y(XI, 1) * e2;
+  history.rolling_spring = -y(TH, 1) * e1 + y(TH, 0) * e2;
+  history.mode = mode;
+  return (e_start - e_settled) + (e_settled - e_end);
+}
+
+}  // namespace dem

@@ -1,0 +1,81 @@
+#pragma once
+// The exact tangential and rolling channel of one contact with a body of infinite mass (a flat wall),
+// PHYSICS.md 1.3-1.5 and 3.1: the spring-slider with static and sliding friction and the rolling
+// resistance of contact_law.h (Ai et al. model C static hold, constant kinetic torque), advanced as a
+// piecewise linear ODE whose pieces are its modes, split at the mode switches found as roots.
+//
+// In the tangent plane, with basis e1 and e2 = n x e1, the motion splits into two identical planar
+// problems (direction 1 couples the slip along e1 with the spin about e2, direction 2 the slip along
+// e2 with minus the spin about e1). Per direction the state is y = (x, v, w, xi, theta): tangential
+// displacement, velocity, spin, tangential spring and rolling spring, and
+//   x' = v,  v' = F/m + g_t,  w' = (-a F + M)/I,  xi' = u = v - a w (stick),  theta' = w (static),
+//   F = -k_t xi - c_t u (stick) or the kinetic -mu F_n u^ (slide),
+//   M = -k_r theta - c_r w (static), the kinetic -mu_r R* F_n w^ (rolling), or 0 (seed mode, sliding).
+// In every mode this is y' = A y + b with constant A and b, propagated exactly by the exponential of
+// the 7x7 matrix [[A t, B t], [0, 0]] (both directions share A; B holds their forcings). In stick with
+// kinetic rolling it is the scalar oscillator of PHYSICS.md 3.1 in u with the tangential mass m_t,
+// 1/m_t = 1/m + a^2/I; with the static hold it is that oscillator coupled to the rolling spring.
+// Switches (PHYSICS.md 1.5), each a root of a smooth function of time along the exact flow:
+//   stick -> slide   |k_t xi| or |c_t u| reaches mu_s F_n (the law's conditions);
+//   slide -> stick   the slip u reverses against its direction at the start of the slide;
+//   static -> roll   |k_r theta| or |c_r w| reaches mu_rs R* F_n;
+//   roll -> static   w reverses against its direction at the start of the roll; the hold starts
+//                    unloaded (contact_law.h rolling_spring);
+//   seed mode: no rolling torque while sliding (the rolling spring is released).
+// Roots are bracketed by sampling at a quarter of the fastest active period, then bisected to
+// round-off; the flow continues in the new mode from the root.
+// Approximations (stated as PHYSICS.md 3.3 asks): the normal force F_n and the lever arm a are constant
+// over a call (the wall flow calls this per sub-step with the mean F_n of the exact normal flow, so the
+// friction and rolling impulses of a sub-step without switch are exact: mu times the normal impulse);
+// the kinetic directions (slip, rolling) are frozen at the start of each mode piece, which is exact
+// for motion in one plane (the seed slope) and first order otherwise; a crossing of a switching
+// threshold and back within one sampling interval is missed; at most max_events switches per call.
+// Pure functions: no state, no allocation; safe from any thread.
+#include <cstdint>
+
+#include "engine/contact_law.h"
+#include "engine/types.h"
+
+namespace dem {
+
+/// Constants of the tangential channel of one particle on an infinite-mass body.
+struct TangentialConstants {
+  Real inv_mass;     // 1/m [1/kg]
+  Real inv_inertia;  // 1/I [1/(kg m^2)]
+  Real arm;          // lever arm a = R - delta/2 [m]
+  bool friction;     // the run has a tangential spring-slider
+  RollingKind rolling;
+  Real k_t, c_t, mu, mu_s;          // [N/m], [N s/m], [-], [-]
+  Real k_r, c_r, mu_r, mu_rs;       // [N m/rad], [N m s/rad], [-], [-]
+  Real r_star;                      // [m]
+};
+
+/// The particle's motion in the frame of the body (translating with it; its rotation removed).
+struct TangentialState {
+  Vec3 velocity;      // tangential velocity of the centre [m/s] (no normal component)
+  Vec3 spin;          // angular velocity relative to the body [rad/s] (the part about n is kept)
+  Vec3 displacement;  // tangential displacement accumulated by this call [m]
+};
+
+/// A mode switch inside a call: its time from the start of the call and the state there.
+struct TangentialEvent {
+  Real time;             // [s]
+  std::uint8_t mode;     // ContactMode bits after the switch
+  TangentialState state;
+};
+
+struct TangentialEvents {
+  static constexpr int capacity = 8;
+  int count = 0;
+  TangentialEvent event[capacity];
+};
+
+/// Advances the channel over tau [s] under the constant normal force `load` >= 0 [N] and tangential
+/// body acceleration g_t [m/s^2] (perpendicular to the unit normal n, which points into the particle).
+/// s.displacement is increased by the tangential displacement; history (springs, mode bits) is updated.
+/// Returns the energy the channel dissipated [J] (sliding, dashpots, and springs released at switches).
+/// `events` (optional) receives the switches, in time order.
+Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, const Vec3& g_t, Real tau,
+                        TangentialState& s, ContactHistory& history, TangentialEvents* events = nullptr);
+
+}  // namespace dem
