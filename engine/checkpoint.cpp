@@ -182,6 +182,7 @@ std::string World::checkpoint_bytes(std::uint64_t scene_hash) const {
   w.put(candidates_.partner);
   const auto reference = skin_tracker_.reference();
   w.put(std::vector<Vec3>(reference.begin(), reference.end()));
+  w.put(exact_work_.history);  // the exact stepper's wall-contact springs and modes
   return w.finish();
 }
 
@@ -226,6 +227,8 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   r.get(candidates.row_start);
   r.get(candidates.partner);
   r.get(reference);
+  std::vector<ExactHistoryRecord> exact_history;
+  r.get(exact_history);
   if (!r.done()) r.fail("unexpected bytes after the last field");
   if (state.size() != state_.size()) r.fail("particle count differs from the scene's");
   if (!broadphase::is_valid(candidates, state.size())) r.fail("damaged neighbour list");
@@ -242,6 +245,7 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   wall_contacts_ = std::move(walls);
   candidates_ = std::move(candidates);
   skin_tracker_.reset(reference);
+  exact_work_.history = std::move(exact_history);
   walls_.set_time(time());
   pairs_.index_rows(state_.size());
   build_pair_adjacency(state_.size(), pairs_, adjacency_);
