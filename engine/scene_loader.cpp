@@ -526,6 +526,8 @@ bool read_integrator(TableReader& top, Scene& scene) {
   c.level_max = r.integer("level_max", c.level_max);
   if (c.level_min > c.level_max) r.fail("level_min", "must be <= level_max");
   if (c.level_max - c.level_min > 40) r.fail("level_max", "level_max - level_min must be at most 40");
+  if (c.level_min < -100) r.fail("level_min", "must be >= -100 (steps of dt_base * 2^-100 and finer are meaningless)");
+  if (c.level_max > 100) r.fail("level_max", "must be <= 100");
   c.safety = r.positive("safety", c.safety);
   if (c.safety >= 1) r.fail("safety", "must be in (0, 1)");
   c.velocity_weight = r.non_negative("velocity_weight", c.velocity_weight);

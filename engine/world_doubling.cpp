@@ -14,6 +14,7 @@
 // exact and accuracy kept). Islands are independent, so results do not depend on thread count.
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "engine/doubling_work.h"
 #include "engine/parallel.h"
@@ -61,6 +62,10 @@ void free_flight(const State& from, std::size_t p, const Vec3& gravity, int dime
 
 void World::init_doubling() {
   const IntegratorConfig& c = config_.integrator;
+  // Levels are stored per particle in 8 bits; the scene loader keeps them in [-100, 100] too.
+  if (c.level_min > c.level_max || c.level_min < -100 || c.level_max > 100 || c.level_max - c.level_min > 40)
+    throw std::invalid_argument("integrator levels must satisfy -100 <= level_min <= level_max <= 100 and "
+                                "level_max - level_min <= 40");
   IslandScratch exemplar;
   exemplar.walls = walls_;
   doubling_ = std::make_unique<DoublingWork>(exemplar);
