@@ -149,6 +149,15 @@ void gather_forces(State& s, const PairContacts& pairs, const WallContacts& wall
   });
 }
 
+Real wall_power(const Walls& walls, const WallContacts& c) {
+  Real power = 0;
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    power += c.force[k].dot(walls.velocity_at(c.wall[k], c.point[k]));
+    power += c.rolling_torque[k].dot(walls.angular_velocity(c.wall[k]));
+  }
+  return power;
+}
+
 void accumulate_wall_loads(const Walls& walls, const WallContacts& c, std::vector<WallLoad>& loads) {
   loads.assign(walls.count(), WallLoad{});
   for (std::size_t k = 0; k < c.size(); ++k) {

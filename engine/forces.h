@@ -24,6 +24,8 @@ ForceKernels select_force_kernels(Separation separation, bool friction, RollingK
 void gather_forces(State& state, const PairContacts& pairs, const WallContacts& walls,
                    const ContactAdjacency& adjacency, bool rotation, int dimension);
 
+/// Power of the moving walls on the particles through these contacts [W] (serial, in contact order).
+Real wall_power(const Walls& walls, const WallContacts& contacts);
 /// Resultant force and torque of the particles on each wall (serial, in contact order).
 void accumulate_wall_loads(const Walls& walls, const WallContacts& contacts, std::vector<WallLoad>& loads);
 

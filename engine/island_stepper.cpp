@@ -9,15 +9,6 @@
 namespace dem {
 namespace {
 
-Real wall_power(const Walls& walls, const WallContacts& c) {
-  Real power = 0;  // serial, in contact order: deterministic
-  for (std::size_t k = 0; k < c.size(); ++k) {
-    power += c.force[k].dot(walls.velocity_at(c.wall[k], c.point[k]));
-    power += c.rolling_torque[k].dot(walls.angular_velocity(c.wall[k]));
-  }
-  return power;
-}
-
 /// Contacts from the current positions and their forces; h is the step the springs advance by.
 void evaluate_forces(IslandState& s, const broadphase::CandidatePairs& candidates, const IslandPhysics& physics,
                      IslandScratch& scratch, Real h) {

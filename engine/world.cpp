@@ -160,7 +160,7 @@ StepStatus World::advance_sync_interval() {
     }
     // Work of moving walls, with the forces at the end of the step (a rectangle rule: an audit, not
     // the physics).
-    if (walls_move_ && config_.integrator.method == Method::verlet) wall_work_ += h * wall_power();
+    if (walls_move_ && config_.integrator.method == Method::verlet) wall_work_ += h * wall_power(walls_, wall_contacts_);
     finite = state_is_finite();
   });
   const std::uint64_t n = state_.size();
@@ -223,16 +223,6 @@ Vec3 World::linear_momentum() const {
         Vec3::Zero());
   });
   return total;
-}
-
-Real World::wall_power() const {
-  Real power = 0;  // serial, in contact order: deterministic
-  const WallContacts& c = wall_contacts_;
-  for (std::size_t k = 0; k < c.size(); ++k) {
-    power += c.force[k].dot(walls_.velocity_at(c.wall[k], c.point[k]));
-    power += c.rolling_torque[k].dot(walls_.angular_velocity(c.wall[k]));
-  }
-  return power;
 }
 
 World::Culprit World::fastest_particle() const {

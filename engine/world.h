@@ -145,7 +145,6 @@ class World {
   void run_islands(const std::vector<std::uint32_t>& which, std::int64_t tick, int level);
   bool find_conflicts();
   void finish_round();
-  Real wall_power() const;
   bool state_is_finite() const;
 
   WorldConfig config_;
