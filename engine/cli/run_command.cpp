@@ -4,6 +4,7 @@
 // of output.interval, and the run ends at the first sync time at or after `until`.
 #include <algorithm>
 #include "engine/cli/commands.h"
+#include "engine/cli/energy_audit.h"
 #include "engine/cli/version.h"
 
 #include <unistd.h>
@@ -158,86 +159,28 @@ class OutputSchedule {
   std::int64_t next_ = 0;
 };
 
-/// Energy appearing from nowhere beyond this fraction of the energy in play stops a run as diverged:
-/// sound runs stay orders of magnitude below (Verlet's error is ~(omega h)^2), unstable ones far above.
-constexpr Real energy_growth_limit = 0.5;
-/// An overlap beyond this fraction of the smaller radius is not a contact the linear law describes.
-constexpr Real overlap_limit = 0.5;
-
 /// The divergence guard: audits a state before results are written and keeps the last state that
 /// passed (in memory, as checkpoint bytes) for when a later one does not.
-///
-/// Energy is audited per window, from the last good state to now: the balance error of
-/// World::energy_balance() may not grow by more than a fraction of the energy in play in that window.
-/// The whole-run balance alone is not enough: its scale holds everything dissipated and all wall work
-/// since the start, so late in a long run a real blow-up hides under it. The whole-run check stays
-/// beside the window's, for growth spread thinly over many short windows.
 class DivergenceGuard {
  public:
-  /// The state a run starts from (scene or checkpoint) is good by definition.
-  DivergenceGuard(const World& world, std::uint64_t physics_hash) : physics_hash_(physics_hash) { accept(world); }
+  DivergenceGuard(const World& world, std::uint64_t physics_hash)
+      : physics_hash_(physics_hash), audit_(world), checkpoint_(world.checkpoint_bytes(physics_hash)) {}
 
   /// Empty if the state is sound, else why the run must stop.
-  std::string check(const World& world) const {
-    char text[400];
-    const Energies now = world.energies();
-    const EnergyBalance whole = world.energy_balance();
-    const Real dissipated = world.dissipated_energy(), wall_work = world.wall_work();
-    const Energies& e = good_.energies;
-    // In play in the window: what moved or was stored at its start, the potential energy released
-    // or taken up, and what the contacts dissipated and the walls did in it.
-    const Real in_play = e.kinetic + e.rotational + e.elastic + std::abs(now.potential - e.potential) +
-                         std::abs(dissipated - good_.dissipated) + std::abs(wall_work - good_.wall_work);
-    // Round-off floor: the balance holds potential energies measured from the origin and running
-    // totals that only grow; two balances differ by ~1e-16 of those sizes even with nothing in play.
-    const Real floor = 1e-12 * (std::abs(e.potential) + std::abs(now.potential) + std::abs(dissipated) + std::abs(wall_work));
-    const Real growth = whole.error - good_.error;
-    // Written as !(a <= b) so that a NaN fails.
-    if (!(growth <= energy_growth_limit * (in_play + floor))) {
-      const World::Culprit c = world.fastest_particle();
-      std::snprintf(text, sizeof text,
-                    "the energy grew by %.3g J since t = %.9g s beyond the work put in (%.0f%% of the %.3g J in play "
-                    "since then; fastest particle %u at %.3g m/s)",
-                    growth, good_.time, 100 * growth / (in_play + floor), in_play + floor, c.particle, c.value);
-      return text;
-    }
-    if (!(whole.error <= energy_growth_limit * whole.scale)) {
-      const World::Culprit c = world.fastest_particle();
-      std::snprintf(text, sizeof text,
-                    "the energy grew by %.3g J since the start beyond the work put in (%.0f%% of the %.3g J in play; "
-                    "fastest particle %u at %.3g m/s)",
-                    whole.error, 100 * whole.error / whole.scale, whole.scale, c.particle, c.value);
-      return text;
-    }
-    const World::Culprit o = world.deepest_overlap();
-    if (o.value > overlap_limit) {
-      std::snprintf(text, sizeof text, "particles %u and %u overlap by %.0f%% of the smaller radius (limit %.0f%%)",
-                    o.particle, o.partner, 100 * o.value, 100 * overlap_limit);
-      return text;
-    }
-    return "";
-  }
-
+  std::string check(const World& world) const { return audit_.check(world); }
   /// The state passed the audit: it is the last good one, and the next window starts here.
   void accept(const World& world) {
-    good_ = {world.time(), world.energy_balance().error, world.energies(), world.dissipated_energy(), world.wall_work()};
+    audit_.accept(world);
     checkpoint_ = world.checkpoint_bytes(physics_hash_);
   }
 
-  Real last_good_time() const { return good_.time; }
+  Real last_good_time() const { return audit_.last_good_time(); }
   /// The bytes of a checkpoint of the last good state.
   const std::string& last_good_checkpoint() const { return checkpoint_; }
 
  private:
-  struct Mark {
-    Real time;          // [s]
-    Real error;         // balance error since the start [J]
-    Energies energies;  // [J]
-    Real dissipated;    // since the start [J]
-    Real wall_work;     // since the start [J]
-  };
   std::uint64_t physics_hash_;
-  Mark good_{};
+  EnergyAudit audit_;
   std::string checkpoint_;
 };
 

@@ -44,6 +44,7 @@
 #include <sys/wait.h>
 
 #include "engine/cli/commands.h"
+#include "engine/cli/energy_audit.h"
 #include "engine/input_error.h"
 #include "engine/output.h"
 #include "engine/world.h"
@@ -156,55 +157,6 @@ Sample sample_of(const World& world, bool trajectory, const Vec3& up) {
   s.observable[wall_force] = force;
   return s;
 }
-
-/// `dem run`'s energy audit (run_command.cpp, DivergenceGuard) without the checkpoint of the last good
-/// state: per window since the last good sample, and over the whole run, energy may not appear beyond
-/// half the energy in play; no overlap may exceed half the smaller radius.
-class EnergyAudit {
- public:
-  explicit EnergyAudit(const World& world) { accept(world); }
-
-  std::string check(const World& world) const {
-    char text[300];
-    const Energies now = world.energies();
-    const EnergyBalance whole = world.energy_balance();
-    const Real dissipated = world.dissipated_energy(), work = world.wall_work();
-    const Energies& e = good_.energies;
-    const Real in_play = e.kinetic + e.rotational + e.elastic + std::abs(now.potential - e.potential) +
-                         std::abs(dissipated - good_.dissipated) + std::abs(work - good_.wall_work);
-    const Real floor = 1e-12 * (std::abs(e.potential) + std::abs(now.potential) + std::abs(dissipated) + std::abs(work));
-    const Real growth = whole.error - good_.error;
-    if (!(growth <= limit * (in_play + floor))) {
-      std::snprintf(text, sizeof text, "the energy grew by %.3g J since t = %.9g s beyond the work put in", growth,
-                    good_.time);
-      return text;
-    }
-    if (!(whole.error <= limit * whole.scale)) {
-      std::snprintf(text, sizeof text, "the energy grew by %.3g J since the start beyond the work put in", whole.error);
-      return text;
-    }
-    const World::Culprit o = world.deepest_overlap();
-    if (o.value > limit) {
-      std::snprintf(text, sizeof text, "particles %u and %u overlap by %.0f%% of the smaller radius", o.particle,
-                    o.partner, 100 * o.value);
-      return text;
-    }
-    return "";
-  }
-
-  void accept(const World& world) {
-    good_ = {world.time(), world.energy_balance().error, world.energies(), world.dissipated_energy(), world.wall_work()};
-  }
-
- private:
-  static constexpr Real limit = 0.5;  // as run_command.cpp's energy_growth_limit and overlap_limit
-  struct Mark {
-    Real time, error;
-    Energies energies;
-    Real dissipated, wall_work;
-  };
-  Mark good_{};
-};
 
 /// Counter-based draw in [-1, 1] from (seed, particle, component): splitmix64 of a mixed key.
 double draw(std::uint64_t seed, std::uint64_t particle, std::uint64_t component) {
