@@ -509,7 +509,7 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
                                                    std::numeric_limits<Real>::infinity());
         const LawConstants c = materials.constants(materials.pair_class(s.material[a], walls.material(w)), m);
         work.interactions[slot++] = {a, a, static_cast<std::uint32_t>(w), f, oscillator_of(c, m.m_star), c.k_n,
-                                     m.m_star, 0, 0, nullptr, c, history_of(work, interaction_key(a, wall_partner(w, f))),
+                                     m.m_star, 0, 0, nullptr, c, history_of(work, exact_history_key(s.id[a], w, f)),
                                      0, {}};
       }
   });
@@ -564,20 +564,24 @@ void find_missed(const State& s, const Walls& walls, const broadphase::Candidate
 
 Real compose(State& s, Walls& walls, const ExactSettings& set, Real t, Real h, ExactWorkspace& work);
 
-/// After an accepted step: the wall contacts' histories for the next step (the interactions are in key
-/// order), and their mode switches appended in time order if recorded. Serial.
-void keep_histories(ExactWorkspace& work) {
+/// After an accepted step: the wall contacts' histories for the next step, keyed by particle id (the
+/// interactions are in slot order, which is id order unless the slots were permuted: then sorted), and
+/// their mode switches appended in time order if recorded. Serial.
+void keep_histories(const State& s, ExactWorkspace& work) {
   work.history.clear();
   const std::size_t first_event = work.events.size();
   for (const ExactInteraction& k : work.interactions) {
     if (k.wall == ExactInteraction::no_wall) continue;
     const ContactHistory& h = k.history;
     if (h.mode != 0 || h.tangential_spring != Vec3::Zero() || h.rolling_spring != Vec3::Zero())
-      work.history.push_back({key_of(k), h});
+      work.history.push_back({exact_history_key(s.id[k.i], k.wall, k.feature), h});
     if (work.record_events)
       for (int e = 0; e < std::min<int>(k.event_count, ExactInteraction::event_capacity); ++e)
         work.events.push_back(k.events[e]);
   }
+  const auto by_key = [](const ExactHistoryRecord& x, const ExactHistoryRecord& y) { return x.key < y.key; };
+  if (!std::is_sorted(work.history.begin(), work.history.end(), by_key))
+    std::sort(work.history.begin(), work.history.end(), by_key);  // keys are unique: one order for any input
   std::stable_sort(work.events.begin() + static_cast<std::ptrdiff_t>(first_event), work.events.end(),
                    [](const ExactModeEvent& x, const ExactModeEvent& y) { return x.time < y.time; });
 }
@@ -641,7 +645,7 @@ Real exact_step(State& s, Walls& walls, const MaterialTable& materials,
     if (!missed.empty()) ++work.unresolved;
     work.wall_work +=
         block_sum<Real>(work.interactions.size(), [&](std::size_t k) { return work.interactions[k].work; });
-    if (tangential) keep_histories(work);
+    if (tangential) keep_histories(s, work);
     return dissipated;
   }
 }

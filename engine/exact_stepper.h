@@ -63,9 +63,16 @@ struct ExactModeEvent {
 
 /// Tangential and rolling history of a wall contact, kept by the exact stepper between steps.
 struct ExactHistoryRecord {
-  std::uint64_t key;  // interaction key: particle slot, wall feature
+  std::uint64_t key;  // exact_history_key: the particle's id (State::id, not its slot), then the wall feature
   ContactHistory history;
 };
+
+/// Key of a wall contact's history record: the particle's stable id in the high 32 bits, so that a
+/// copy of some particles under other slots (an island of step doubling) finds the same records, and
+/// all records of one particle are adjacent; the wall and feature in the low bits.
+inline std::uint64_t exact_history_key(ParticleId id, std::size_t wall, std::uint32_t feature) {
+  return (std::uint64_t{id} << 32) | 0x80000000u | (std::uint64_t{wall} << 8) | feature;
+}
 
 /// One pair or wall contact taking part in an exact step.
 struct ExactInteraction {
@@ -108,7 +115,7 @@ struct ExactWorkspace {
   static constexpr std::size_t table_capacity = 1 << 16;
   // Friction and rolling resistance on wall contacts (exact_friction.h).
   RollingKind rolling = RollingKind::standard;  // rolling variant when the materials have rolling resistance
-  std::vector<ExactHistoryRecord> history;      // wall contacts' histories, sorted by key
+  std::vector<ExactHistoryRecord> history;      // wall contacts' histories (non-zero ones), sorted by key
   bool record_events = false;                   // append every mode switch to `events`
   std::vector<ExactModeEvent> events;           // mode switches in time order per step (if recorded)
 };

@@ -30,7 +30,10 @@ std::uint64_t step(IslandState& s, const broadphase::CandidatePairs& candidates,
     const ExactSettings settings{physics.separation, physics.gravity, physics.dimension};
     const std::uint64_t retries = scratch.exact.retries, unresolved = scratch.exact.unresolved;
     const Real wall_work = scratch.exact.wall_work;
+    // The trial's own wall-contact history stands in for the workspace's while it steps.
+    std::swap(scratch.exact.history, s.exact_history);
     s.exact_dissipated += exact_step(st, scratch.walls, *physics.materials, candidates, settings, t, h, scratch.exact);
+    std::swap(scratch.exact.history, s.exact_history);
     s.wall_work += scratch.exact.wall_work - wall_work;
     s.unresolved += scratch.exact.unresolved - unresolved;
     return (scratch.exact.retries - retries) * st.size();

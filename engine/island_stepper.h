@@ -5,6 +5,8 @@
 // kernels of the fixed control (Verlet kick-drift-forces-kick, or exact_step), three times per
 // attempt: once over h and twice over h/2. The per-particle error of seed formula (3) decides:
 // reject and retry at a finer level, or accept the two half steps and choose the next level.
+// With method exact the island also carries its members' wall-contact history (tangential and rolling
+// springs, modes), which the exact stepper reads by particle id.
 // Reads only its own copy; the World gathers islands from its state and scatters them back, so
 // islands are independent and may run in any order on any thread.
 #include <cstdint>
@@ -31,6 +33,10 @@ struct IslandState {
   Real exact_dissipated = 0;    // by the exact stepper's flows [J]
   Real wall_work = 0;           // by moving walls on the island [J]
   std::uint64_t unresolved = 0; // exact steps accepted with a contact still missed
+  // The exact stepper's wall-contact springs and modes of the members (ExactWorkspace::history, keyed
+  // by particle id, sorted), cut from the World's list with the island: each trial carries its own
+  // copy, so a rejected trial or a redone round leaves no trace; the accepted one goes back to the World.
+  std::vector<ExactHistoryRecord> exact_history;
 };
 
 /// The physics every island shares.

@@ -45,10 +45,10 @@ World::World(const WorldConfig& config)
   kernels_ = select_force_kernels(config_.model.separation, materials_.any_friction(),
                                   rolling_kind(materials_, config_.model.rolling_mode));
   if (config_.integrator.method == Method::exact && (materials_.any_friction() || materials_.any_rolling()) &&
-      (config_.particles.size() > 1 || config_.integrator.control == Control::doubling ||
+      (config_.particles.size() > 1 ||
        std::any_of(config_.walls.begin(), config_.walls.end(), [](const WallConfig& w) { return w.kind == WallKind::cylinder; })))
     throw std::invalid_argument("method exact handles friction and rolling resistance only for one particle on flat "
-                                "walls (plane, box) with control fixed so far: use method verlet");
+                                "walls (plane, box) so far: use method verlet");
   exact_work_.rolling = rolling_kind(materials_, config_.model.rolling_mode);
   add_particles();
   if (config_.broadphase.skin >= 0) {

@@ -8,7 +8,8 @@
 //      particle's farthest excursion counted) may have touched: they are merged and redone
 //      together from the start of the round; a particle that outran the skin redoes the round
 //      with a wider skin
-//   -> `next` becomes the state; the islands' contacts become the World's lists.
+//   -> `next` becomes the state; the islands' contacts become the World's lists (method exact: the
+//      islands' wall-contact histories become the World's exact history).
 // So a contact never spans two islands at different levels: where the DESIGN's booking would
 // apply the impulse late to one side, the two sides are integrated together instead (momentum
 // exact and accuracy kept). Islands are independent, so results do not depend on thread count.
@@ -68,6 +69,7 @@ void World::init_doubling() {
                                 "level_max - level_min <= 40");
   IslandScratch exemplar;
   exemplar.walls = walls_;
+  exemplar.exact.rolling = exact_work_.rolling;
   doubling_ = std::make_unique<DoublingWork>(exemplar);
   DoublingWork& d = *doubling_;
   d.physics = IslandPhysics{&materials_, kernels_, gravity_, config_.model.dimension, c.method,
@@ -174,11 +176,22 @@ void World::find_round_islands(Real h) {
 
 namespace {
 
-/// Cuts island k out of the World's state, candidates and contact lists.
+/// Appends the records of particle `id` from a list sorted by exact_history_key (they are adjacent).
+void append_exact_history(const std::vector<ExactHistoryRecord>& from, ParticleId id,
+                          std::vector<ExactHistoryRecord>& to) {
+  const std::uint64_t first = std::uint64_t{id} << 32, last = first + (std::uint64_t{1} << 32);
+  const auto by_key = [](const ExactHistoryRecord& r, std::uint64_t x) { return r.key < x; };
+  const auto begin = std::lower_bound(from.begin(), from.end(), first, by_key);
+  const auto end = std::lower_bound(begin, from.end(), last, by_key);
+  to.insert(to.end(), begin, end);
+}
+
+/// Cuts island k out of the World's state, candidates and contact lists (Verlet: `with_contacts`), or
+/// its members' exact wall-contact history (exact: `exact_history`, sorted by key).
 void gather_island(const Islands& islands, const std::vector<std::uint32_t>& local, std::size_t k, const State& s,
                    const broadphase::CandidatePairs& candidates, const PairContacts& pairs,
                    const WallContacts& walls, const std::vector<std::uint32_t>& wall_start, bool with_contacts,
-                   IslandJob& job) {
+                   const std::vector<ExactHistoryRecord>* exact_history, IslandJob& job) {
   const ParticleIndex* member = islands.member.data() + islands.start[k];
   const std::size_t m = islands.start[k + 1] - islands.start[k];
   State& t = job.island.state;
@@ -230,6 +243,14 @@ void gather_island(const Islands& islands, const std::vector<std::uint32_t>& loc
   job.island.adjacency.wall_start.clear();
   job.island.ended_dissipation = job.island.exact_dissipated = job.island.wall_work = 0;
   job.island.unresolved = 0;
+  std::vector<ExactHistoryRecord>& history = job.island.exact_history;
+  history.clear();
+  if (exact_history && !exact_history->empty()) {
+    for (std::size_t q = 0; q < m; ++q) append_exact_history(*exact_history, t.id[q], history);
+    // Members are in slot order; ids need not be.
+    const auto by_key = [](const ExactHistoryRecord& x, const ExactHistoryRecord& y) { return x.key < y.key; };
+    if (!std::is_sorted(history.begin(), history.end(), by_key)) std::sort(history.begin(), history.end(), by_key);
+  }
 }
 
 }  // namespace
@@ -283,9 +304,10 @@ void World::run_islands(const std::vector<std::uint32_t>& which, std::int64_t ti
       [&](std::size_t w) {
         const std::uint32_t k = busy[w];
         IslandJob& job = d.jobs[d.job_of[k]];
-        // The exact stepper keeps no contact history: it finds its contacts from the positions.
+        // The exact stepper finds its contacts from the positions; it keeps only its wall contacts'
+        // tangential and rolling history, by particle id.
         gather_island(d.islands, d.local_index, k, state_, candidates_, pairs_, wall_contacts_, adjacency_.wall_start,
-                      c.method == Method::verlet, job);
+                      c.method == Method::verlet, c.method == Method::exact ? &exact_work_.history : nullptr, job);
         int start_level = scheduler_.level_max();
         for (std::int8_t l : job.island.state.level) start_level = std::min<int>(start_level, l);
         job.level = advance_island(job.island, job.candidates, d.physics, settings, d.scratch.local(), t0, tick, end,
@@ -406,7 +428,20 @@ void World::finish_round() {
     for (std::size_t k = 0; k < local.histogram.size(); ++k) histogram[k] += local.histogram[k];
     local = DoublingCounters{};
   }
-  if (config_.integrator.method == Method::exact) return;  // contacts are found again from positions
+  if (config_.integrator.method == Method::exact) {
+    // Contacts are found again from positions; the wall-contact histories of the accepted trials
+    // become the World's, in key order. A particle in free flight touches no wall: it has none.
+    std::vector<ExactHistoryRecord>& history = exact_work_.history;
+    history.clear();
+    for (std::size_t k = 0; k < islands; ++k)
+      if (d.job_of[k] >= 0) {
+        const std::vector<ExactHistoryRecord>& own = d.jobs[d.job_of[k]].island.exact_history;
+        history.insert(history.end(), own.begin(), own.end());
+      }
+    std::sort(history.begin(), history.end(),
+              [](const ExactHistoryRecord& x, const ExactHistoryRecord& y) { return x.key < y.key; });
+    return;
+  }
   // The islands' contact lists become the World's, in the World's order: by row (smaller slot),
   // then key for pairs; by particle, then key for walls.
   std::vector<std::uint32_t>& pair_count = workspace_.count;
