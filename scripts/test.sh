@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The README's test command and CI's only command: installs what is missing, configures, builds and
-# runs every CI stage (warnings as errors, costly invariants checked), printing each stage's time.
+# runs every CI stage (warnings as errors, costly invariants checked; then 60 s of fuzzing the scene
+# loader with clang's libFuzzer and sanitizers, scripts/fuzz.sh), printing each stage's time.
 # Long validation (ctest label `long`) is skipped here: run `ctest --test-dir build-test -L long`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,3 +30,4 @@ stage "layering check" layering
 stage "configure" cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDEM_WERROR=ON -DDEM_VALIDATE=ON
 stage "build" cmake --build "$build" -j "$jobs"
 stage "tests" ctest --test-dir "$build" -LE long --output-on-failure -j "$jobs" --timeout 300
+stage "fuzz scene loader (60 s)" bash scripts/fuzz.sh 60
