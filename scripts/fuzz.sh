@@ -37,7 +37,7 @@ status=0
   -dict=fuzz/scene.dict -max_total_time="$seconds" -timeout=5 -rss_limit_mb=2048 -max_len=8192 \
   -print_final_stats=1 -artifact_prefix="$build/artifacts/" >"$log" 2>&1 || status=$?
 # The summary: libFuzzer's final statistics (executions, speed, corpus size).
-grep -E '^(stat::|Done|INFO: seed corpus|#[0-9]+ +DONE)' "$log" || true
+grep -E '^(stat::|Done|INFO: seed corpus|#[0-9]+[[:space:]]+DONE)' "$log" || true
 
 findings=("$build"/artifacts/*)
 if [ "$status" -ne 0 ] || [ -e "${findings[0]}" ]; then
