@@ -53,7 +53,15 @@ struct PlacementGrid {
     return (static_cast<std::uint64_t>(x) * 73856093ull) ^ (static_cast<std::uint64_t>(y) * 19349663ull) ^
            (static_cast<std::uint64_t>(z) * 83492791ull);
   }
-  std::int64_t coord(Real v) const { return static_cast<std::int64_t>(std::floor(v / cell)); }
+  // Clamped like the broadphase grid's cells: a finite but huge position (1e307 m) would overflow the
+  // conversion to int64; far particles then share an edge cell, and the distance test stays exact.
+  std::int64_t coord(Real v) const {
+    constexpr Real limit = 0x1p52;
+    Real q = std::floor(v / cell);
+    if (!(q >= -limit)) q = -limit;  // also maps NaN
+    if (q > limit) q = limit;
+    return static_cast<std::int64_t>(q);
+  }
   void insert(const Vec3& x, std::size_t p) { cells[key(coord(x.x()), coord(x.y()), coord(x.z()))].push_back(p); }
   bool overlaps(const Vec3& x, Real r, const std::vector<ParticleConfig>& ps) const {
     const std::int64_t cx = coord(x.x()), cy = coord(x.y()), cz = coord(x.z());
