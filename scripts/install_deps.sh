@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # Installs, with apt-get, whatever the build needs and this Debian bookworm machine lacks
 # (compiler and CMake included). Idempotent: installed packages are skipped. Run as root.
+#   bash scripts/install_deps.sh             the build's packages
+#   bash scripts/install_deps.sh PKG ...     these packages instead (e.g. the fuzzer's clang)
 set -euo pipefail
 packages=(g++ cmake ninja-build git
   libeigen3-dev libtbb-dev libnanoflann-dev libgtest-dev libbenchmark-dev libbenchmark-tools
   libtomlplusplus-dev libcli11-dev)
+if [ $# -gt 0 ]; then packages=("$@"); fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

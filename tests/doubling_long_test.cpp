@@ -16,11 +16,6 @@ namespace {
 
 using namespace dem::test;
 
-bool run_known_failures() {
-  const char* flag = std::getenv("DEM_RUN_KNOWN_FAILURES");
-  return flag != nullptr && std::string(flag) == "1";
-}
-
 TEST(DoublingLong, UndampedPackingEnergyErrorStaysWithin1e3Over1e5IntervalsAtTolerance1e2) {
   const PackingRun r = packing_under_doubling(1e-2, 100'000);
   record(r);

@@ -48,11 +48,6 @@ namespace {
 
 using namespace dem::test;
 
-bool run_known_failures() {
-  const char* flag = std::getenv("DEM_RUN_KNOWN_FAILURES");
-  return flag != nullptr && std::string(flag) == "1";
-}
-
 void run_intervals(World& world, long n) {
   for (long s = 0; s < n; ++s) ASSERT_EQ(world.advance_sync_interval(), StepStatus::ok);
 }
