@@ -69,10 +69,13 @@ enum class WallKind {
   plane,     ///< half-space boundary: particles live on the side `normal` points to
   box,       ///< finite box: a container (inside = true) or a solid block (inside = false)
   cylinder,  ///< the inside of a cylinder (a mill shell), optionally of finite length
+  prism,     ///< a solid convex polygon extruded along `axis` (a mill lifter bar)
 };
 
 /// A wall with prescribed motion: its geometry at time t is the t = 0 geometry translated by
-/// velocity * t and rotated by angular_velocity * t about rotation_center (which moves with the wall).
+/// velocity * s(t) and rotated by angle |angular_velocity| * s(t) about rotation_center (which moves
+/// with the wall), where s(t) = t, or with a start-up ramp of ramp_time T the integral of a speed
+/// rising linearly from 0 to full over T: s(t) = t^2 / 2T for t < T, t - T/2 after.
 struct WallConfig {
   std::string name;
   WallKind kind = WallKind::plane;
@@ -83,11 +86,14 @@ struct WallConfig {
   bool inside = true;                     // box: particles inside (container) or outside (solid)
   Vec3 axis = Vec3::UnitZ();              // cylinder axis direction
   Real radius = 1;                        // cylinder inner radius [m]
-  Real length = std::numeric_limits<Real>::infinity();  // cylinder length, centred on `point` [m]
+  Real length = std::numeric_limits<Real>::infinity();  // cylinder, prism: length centred on `point` [m]
+  std::vector<Vec3> profile;              // prism: corners of its convex cross-section at t = 0, in the
+                                          // plane through `point` perpendicular to `axis` [m]
   Vec3 velocity = Vec3::Zero();           // [m/s]
   Vec3 angular_velocity = Vec3::Zero();   // [rad/s]
   Vec3 rotation_center = Vec3::Zero();    // [m], used when use_rotation_center, else `point`
   bool use_rotation_center = false;
+  Real ramp_time = 0;                     // start-up: speeds rise linearly from 0 over this time [s]
 };
 
 struct ParticleConfig {

@@ -52,13 +52,13 @@ namespace dem {
 
 /// A mode switch of a wall contact found inside a step (PHYSICS.md 1.5), with the particle's state at it.
 struct ExactModeEvent {
-  Real time;             // [s]
-  ParticleIndex particle;
-  std::uint32_t wall;
-  std::uint8_t mode;     // ContactMode bits after the switch
-  Vec3 position;         // [m]
-  Vec3 velocity;         // [m/s]
-  Vec3 angular_velocity; // [rad/s]
+  Real time = 0;                          // [s]
+  ParticleIndex particle = 0;
+  std::uint32_t wall = 0;
+  std::uint8_t mode = 0;                  // ContactMode bits after the switch
+  Vec3 position = Vec3::Zero();           // [m]
+  Vec3 velocity = Vec3::Zero();           // [m/s]
+  Vec3 angular_velocity = Vec3::Zero();   // [rad/s]
 };
 
 /// Tangential and rolling history of a wall contact, kept by the exact stepper between steps.

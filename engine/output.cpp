@@ -628,6 +628,28 @@ WallGeometry box_geometry(const Eigen::Vector3d& center, const Eigen::Vector3d& 
   return g;
 }
 
+WallGeometry prism_geometry(const std::vector<Eigen::Vector3d>& corners, const Eigen::Vector3d& axis, double length,
+                            std::uint32_t wall) {
+  check_finite_positive(length, "prism_geometry: length (give a finite display length)");
+  if (corners.size() < 3) throw std::invalid_argument("prism_geometry: at least 3 corners");
+  const Eigen::Vector3d half = 0.5 * length * unit_direction(axis, "prism_geometry: axis");
+  const auto n = static_cast<std::uint32_t>(corners.size());
+  WallGeometry g;
+  for (const auto& c : corners) g.points.push_back(c - half);  // points 0 .. n-1: the back end
+  for (const auto& c : corners) g.points.push_back(c + half);  // n .. 2n-1: the front end
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const std::uint32_t j = (i + 1) % n;
+    g.triangles.push_back({i, j, n + j});
+    g.triangles.push_back({i, n + j, n + i});
+  }
+  for (std::uint32_t i = 1; i + 1 < n; ++i) {
+    g.triangles.push_back({0, i + 1, i});
+    g.triangles.push_back({n, n + i, n + i + 1});
+  }
+  g.wall_index.assign(g.triangles.size(), wall);
+  return g;
+}
+
 WallGeometry cylinder_geometry(const Eigen::Vector3d& point, const Eigen::Vector3d& axis, double radius,
                                double length, int segments, std::uint32_t wall) {
   check_finite_positive(radius, "cylinder_geometry: radius");

@@ -166,6 +166,11 @@ WallGeometry box_geometry(const Eigen::Vector3d& center, const Eigen::Vector3d& 
 WallGeometry cylinder_geometry(const Eigen::Vector3d& point, const Eigen::Vector3d& axis, double radius,
                                double length, int segments = 64, std::uint32_t wall = 0);
 
+/// A solid prism: the convex cross-section `corners` [m] (in order around it, in the plane through the
+/// prism's centre) extruded by `length` [m] along `axis`, centred; side quads and two fan-capped ends.
+WallGeometry prism_geometry(const std::vector<Eigen::Vector3d>& corners, const Eigen::Vector3d& axis, double length,
+                            std::uint32_t wall = 0);
+
 /// A ParaView collection (`.pvd`) listing snapshot files with their times; the whole file is rewritten
 /// atomically on each change, so it is always valid. Opening an existing index keeps its entries
 /// (resume); call truncate_after with the checkpoint's time to drop later ones.

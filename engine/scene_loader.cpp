@@ -181,6 +181,30 @@ class TableReader {
     return v;
   }
 
+  /// An array of points [[x, y, z], ...].
+  std::vector<Vec3> vec3_list(const std::string& key) {
+    used_.insert(key);
+    std::vector<Vec3> out;
+    const toml::node* node = table_.get(key);
+    if (!node) return out;
+    const toml::array* a = node->as_array();
+    if (!a) fail(key, "expected an array of points [[x, y, z], ...]");
+    for (const toml::node& e : *a) {
+      const toml::array* p = e.as_array();
+      if (!p || p->size() != 3) fail_at(&e, key, "expected an array of points [[x, y, z], ...]");
+      Vec3 v;
+      for (std::size_t i = 0; i < 3; ++i) {
+        const toml::node& c = *p->get(i);
+        if (auto d = c.value_exact<double>()) v[static_cast<int>(i)] = *d;
+        else if (auto n = c.value_exact<int64_t>()) v[static_cast<int>(i)] = static_cast<Real>(*n);
+        else fail_at(&e, key, "expected an array of points [[x, y, z], ...]");
+      }
+      if (!v.allFinite()) fail_at(&e, key, "components must be finite");
+      out.push_back(v);
+    }
+    return out;
+  }
+
   const toml::table* table(const std::string& key) {
     used_.insert(key);
     const toml::node* node = table_.get(key);
@@ -381,8 +405,8 @@ void read_walls(TableReader& top, Scene& scene) {
     TableReader r(*tables[i], indexed("walls", i), top.file());
     WallConfig w;
     w.name = r.string("name", "wall" + std::to_string(i));
-    const std::size_t kind = r.choice("type", {"plane", "box", "cylinder"}, 99);
-    if (kind == 99) r.fail("type", "is required: one of plane, box, cylinder");
+    const std::size_t kind = r.choice("type", {"plane", "box", "cylinder", "prism"}, 99);
+    if (kind == 99) r.fail("type", "is required: one of plane, box, cylinder, prism");
     w.kind = static_cast<WallKind>(kind);
     w.material = read_material_name(r, scene, "material");
     w.point = r.vec3("point", Vec3::Zero());
@@ -393,11 +417,22 @@ void read_walls(TableReader& top, Scene& scene) {
       w.half_extents = r.vec3("half_extents", Vec3::Ones());
       if (!(w.half_extents.minCoeff() > 0)) r.fail("half_extents", "all three half edge lengths must be > 0");
       w.inside = r.boolean("inside", true);
-    } else {
+    } else if (w.kind == WallKind::cylinder) {
       w.axis = r.vec3("axis", Vec3::UnitZ());
       if (w.axis.norm() == 0) r.fail("axis", "must be a non-zero vector");
       w.radius = r.required_positive("radius");
       if (r.has("length")) w.length = r.positive("length", 1);
+    } else {
+      w.axis = r.vec3("axis", Vec3::UnitZ());
+      if (w.axis.norm() == 0) r.fail("axis", "must be a non-zero vector");
+      if (r.has("length")) w.length = r.positive("length", 1);
+      if (!r.has("profile")) r.fail("profile", "is required: the corners of the cross-section [[x, y, z], ...]");
+      w.profile = r.vec3_list("profile");
+      try {
+        Walls::check_prism(w);
+      } catch (const std::invalid_argument& e) {
+        r.fail("profile", e.what());
+      }
     }
     w.velocity = r.vec3("velocity", Vec3::Zero());
     w.angular_velocity = r.vec3("angular_velocity", Vec3::Zero());
@@ -405,6 +440,7 @@ void read_walls(TableReader& top, Scene& scene) {
       w.rotation_center = r.vec3("rotation_center", Vec3::Zero());
       w.use_rotation_center = true;
     }
+    w.ramp_time = r.non_negative("ramp_time", 0);
     r.finish();
     scene.world.walls.push_back(w);
   }

@@ -1,21 +1,60 @@
 #include "engine/walls.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace dem {
+
+namespace {
+
+using Vec2 = Eigen::Vector2d;
+
+Real cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+
+/// Distance factor s(t) of a start-up ramp (config.h) and its rate s'(t).
+Real ramp_distance(Real t, Real ramp) { return ramp > 0 && t < ramp ? t * t / (2 * ramp) : t - 0.5 * std::max(ramp, Real(0)); }
+Real ramp_rate(Real t, Real ramp) { return ramp > 0 && t < ramp ? t / ramp : 1; }
+
+}  // namespace
 
 Walls::Walls(const std::vector<WallConfig>& walls, const MaterialTable& materials) : config_(walls) {
   for (auto& w : config_) {
     if (!w.use_rotation_center) w.rotation_center = w.point;
     if (w.kind == WallKind::plane) w.normal.normalize();
-    if (w.kind == WallKind::cylinder) w.axis.normalize();
+    if (w.kind == WallKind::cylinder || w.kind == WallKind::prism) w.axis.normalize();
     const int m = materials.find(w.material);
     if (m < 0) throw std::invalid_argument("wall '" + w.name + "' names an unknown material '" + w.material + "'");
     material_.push_back(static_cast<std::uint16_t>(m));
+    prism_.push_back(w.kind == WallKind::prism ? make_prism(w) : PrismShape{});
   }
   pose_.resize(config_.size());
   set_time(0);
+}
+
+Walls::PrismShape Walls::make_prism(const WallConfig& w) {
+  auto fail = [&](const std::string& why) { throw std::invalid_argument("prism wall '" + w.name + "': " + why); };
+  if (!(w.length > 0)) fail("length must be > 0");
+  PrismShape shape;
+  shape.u = w.axis.unitOrthogonal();
+  shape.v = w.axis.cross(shape.u);
+  shape.half_length = 0.5 * w.length;
+  for (const Vec3& c : w.profile) shape.corner.emplace_back((c - w.point).dot(shape.u), (c - w.point).dot(shape.v));
+  const std::size_t n = shape.corner.size();
+  if (n < 3) fail("the profile needs at least 3 corners");
+  Real area = 0;
+  for (std::size_t i = 0; i < n; ++i) area += cross2(shape.corner[i], shape.corner[(i + 1) % n]);
+  if (!(std::abs(area) > 0)) fail("the profile encloses no area");
+  if (area < 0) std::reverse(shape.corner.begin(), shape.corner.end());
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec2 edge = shape.corner[(i + 1) % n] - shape.corner[i];
+    if (!(edge.norm() > 0)) fail("two consecutive profile corners coincide");
+    if (cross2(edge, shape.corner[(i + 2) % n] - shape.corner[(i + 1) % n]) <= 0)
+      fail("the profile must be strictly convex, its corners in order around it");
+    shape.normal.emplace_back(Vec2(edge.y(), -edge.x()).normalized());
+  }
+  return shape;
 }
 
 std::uint32_t Walls::feature_count(std::size_t w) const {
@@ -27,12 +66,15 @@ void Walls::set_time(Real t) {
   for (std::size_t w = 0; w < config_.size(); ++w) {
     const WallConfig& c = config_[w];
     Pose& p = pose_[w];
-    const Real angle = c.angular_velocity.norm() * t;
+    const Real s = ramp_distance(t, c.ramp_time);
+    const Real angle = c.angular_velocity.norm() * s;
     p.rotation = angle > 0 ? Eigen::AngleAxisd(angle, c.angular_velocity.normalized()).toRotationMatrix()
                            : Eigen::Matrix3d::Identity();
-    p.center = c.rotation_center + c.velocity * t;
+    p.center = c.rotation_center + c.velocity * s;
     p.point = p.center + p.rotation * (c.point - c.rotation_center);
     p.direction = p.rotation * (c.kind == WallKind::plane ? c.normal : c.axis);
+    p.velocity = ramp_rate(t, c.ramp_time) * c.velocity;
+    p.angular_velocity = ramp_rate(t, c.ramp_time) * c.angular_velocity;
   }
 }
 
@@ -87,8 +129,60 @@ bool Walls::touch(std::size_t w, std::uint32_t f, const Vec3& x, Real r, WallTou
       out.normal = -radial / rho;
       return true;
     }
+    case WallKind::prism:
+      return touch_prism(w, x, r, out);
   }
   return false;
+}
+
+bool Walls::touch_prism(std::size_t w, const Vec3& x, Real r, WallTouch& out) const {
+  const PrismShape& shape = prism_[w];
+  const Pose& p = pose_[w];
+  const Vec3 rel = p.rotation.transpose() * (x - p.point);  // in the t = 0 frame
+  const Vec2 q(rel.dot(shape.u), rel.dot(shape.v));
+  const Real along = rel.dot(config_[w].axis);
+  const std::size_t n = shape.corner.size();
+  // Signed distance to each edge line: all <= 0 means q lies inside the cross-section.
+  Real outmost = -std::numeric_limits<Real>::infinity();
+  std::size_t outmost_edge = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Real d = shape.normal[i].dot(q - shape.corner[i]);
+    if (d > outmost) outmost = d, outmost_edge = i;
+  }
+  const Real axial_depth = shape.half_length - std::abs(along);
+  if (outmost <= 0 && axial_depth >= 0) {
+    // Centre inside the solid: push out through the nearest side (the end faces included).
+    Vec3 normal0;
+    Real depth;
+    if (axial_depth < -outmost) {
+      depth = axial_depth;
+      normal0 = (along >= 0 ? 1.0 : -1.0) * config_[w].axis;
+    } else {
+      depth = -outmost;
+      normal0 = shape.normal[outmost_edge].x() * shape.u + shape.normal[outmost_edge].y() * shape.v;
+    }
+    out.overlap = r + depth;
+    out.normal = p.rotation * normal0;
+    return true;
+  }
+  Vec2 nearest = q;
+  if (outmost > 0) {
+    Real best = std::numeric_limits<Real>::infinity();
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec2 a = shape.corner[i], edge = shape.corner[(i + 1) % n] - a;
+      const Real f = std::clamp((q - a).dot(edge) / edge.squaredNorm(), Real(0), Real(1));
+      const Vec2 point = a + f * edge;
+      const Real d2 = (q - point).squaredNorm();
+      if (d2 < best) best = d2, nearest = point;
+    }
+  }
+  const Real nearest_along = std::clamp(along, -shape.half_length, shape.half_length);
+  const Vec3 gap = (q - nearest).x() * shape.u + (q - nearest).y() * shape.v + (along - nearest_along) * config_[w].axis;
+  const Real d = gap.norm();
+  out.overlap = r - d;
+  if (out.overlap <= 0 || d == 0) return false;
+  out.normal = p.rotation * (gap / d);
+  return true;
 }
 
 std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features) const {
@@ -110,8 +204,7 @@ std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std
 }
 
 Vec3 Walls::velocity_at(std::size_t w, const Vec3& x) const {
-  const WallConfig& c = config_[w];
-  return c.velocity + c.angular_velocity.cross(x - pose_[w].center);
+  return pose_[w].velocity + pose_[w].angular_velocity.cross(x - pose_[w].center);
 }
 
 }  // namespace dem

@@ -1,7 +1,8 @@
 #pragma once
-// Walls with prescribed motion: planes, finite boxes (container or solid) and the inside of a
-// cylinder. A wall's geometry at time t is its t = 0 geometry translated by v t and rotated by
-// Omega t about its rotation centre (exact in t, no accumulated drift). Walls have infinite mass.
+// Walls with prescribed motion: planes, finite boxes (container or solid), the inside of a
+// cylinder and solid convex prisms (lifter bars). A wall's geometry at time t is its t = 0 geometry
+// translated by v s(t) and rotated by |Omega| s(t) about its rotation centre, s(t) the distance
+// factor of its start-up ramp (config.h), exact in t with no accumulated drift. Walls have infinite mass.
 // Threading: after set_time, all queries are const and safe from any thread.
 #include <cstdint>
 #include <vector>
@@ -30,6 +31,9 @@ class Walls {
   Walls() = default;
   Walls(const std::vector<WallConfig>& walls, const MaterialTable& materials);
 
+  /// Throws std::invalid_argument naming the problem when a prism's profile is not a convex polygon.
+  static void check_prism(const WallConfig& w) { make_prism(w); }
+
   std::size_t count() const { return config_.size(); }
   const WallConfig& config(std::size_t w) const { return config_[w]; }
   std::uint16_t material(std::size_t w) const { return material_[w]; }
@@ -47,7 +51,8 @@ class Walls {
 
   /// Velocity of the wall's material at point p [m/s].
   Vec3 velocity_at(std::size_t w, const Vec3& p) const;
-  const Vec3& angular_velocity(std::size_t w) const { return config_[w].angular_velocity; }
+  /// Angular velocity now (the configured one scaled by the start-up ramp) [rad/s].
+  const Vec3& angular_velocity(std::size_t w) const { return pose_[w].angular_velocity; }
   /// Current rotation centre (torques are reported about it).
   const Vec3& rotation_center(std::size_t w) const { return pose_[w].center; }
   /// Current pose: a point of the geometry (plane point, box centre, cylinder axis point).
@@ -60,8 +65,21 @@ class Walls {
     Vec3 point;                // the config's `point` now
     Eigen::Matrix3d rotation;  // rotation since t = 0
     Vec3 direction;            // plane normal or cylinder axis now
+    Vec3 velocity;             // of the rotation centre now [m/s]
+    Vec3 angular_velocity;     // now [rad/s]
   };
+  /// A prism's cross-section in its own t = 0 frame: coordinates along u and v, axis = u x v.
+  struct PrismShape {
+    Vec3 u, v;
+    std::vector<Eigen::Vector2d> corner;  // counter-clockwise about the axis
+    std::vector<Eigen::Vector2d> normal;  // outward unit normal of edge corner[i] -> corner[i + 1]
+    Real half_length = 0;
+  };
+  static PrismShape make_prism(const WallConfig& w);
+  bool touch_prism(std::size_t w, const Vec3& x, Real r, WallTouch& out) const;
+
   std::vector<WallConfig> config_;
+  std::vector<PrismShape> prism_;  // per wall; empty shape for other kinds
   std::vector<std::uint16_t> material_;
   std::vector<Pose> pose_;
 };

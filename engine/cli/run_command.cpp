@@ -118,6 +118,13 @@ WallGeometry wall_geometry(const World& world) {
         append_wall_geometry(all, cylinder_geometry(world.walls().point(w), rotation * c.axis, c.radius, length, 64, wall));
         break;
       }
+      case WallKind::prism: {
+        std::vector<Eigen::Vector3d> corners;
+        for (const Vec3& corner : c.profile) corners.push_back(world.walls().point(w) + rotation * (corner - c.point));
+        const Real length = std::isfinite(c.length) ? c.length : extent;
+        append_wall_geometry(all, prism_geometry(corners, rotation * c.axis, length, wall));
+        break;
+      }
     }
   }
   return all;

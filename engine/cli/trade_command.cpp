@@ -263,7 +263,7 @@ std::vector<double> scales_of(const std::vector<Sample>& reference, const Metric
     for (const Sample& sample : reference)
       for (std::size_t p = 0; p < sample.position.size(); ++p)
         x = std::max(x, sample.position[p].norm()), v = std::max(v, sample.velocity[p].norm());
-    s.insert(s.end(), {x, x, v, v});
+    s = {x, x, v, v};  // s is empty here (assign: GCC 12 misreads insert as an overflow)
   }
   for (int o = 0; o < observable_count; ++o)
     if (metrics.observable[o]) {
