@@ -40,6 +40,7 @@ std::uint64_t state_hash(const State& s, const PairContacts& pairs, const WallCo
   h.add(clock.interval);
   h.add(clock.tick);
   for (ParticleIndex p : s.index_of_id) {
+    if (p == removed_slot) continue;  // removed by an embedding program
     h.add_vec(s.position[p]);
     h.add_vec(s.velocity[p]);
     h.add_vec(s.angular_velocity[p]);

@@ -21,4 +21,12 @@ ParticleIndex State::add(const Vec3& x, const Vec3& v, const Vec3& w, Real r, Re
   return slot;
 }
 
+void State::remove(ParticleIndex slot) {
+  const auto erase = [slot](auto& v) { v.erase(v.begin() + slot); };
+  index_of_id[id[slot]] = removed_slot;
+  erase(id), erase(position), erase(velocity), erase(angular_velocity), erase(force), erase(torque);
+  erase(radius), erase(inv_mass), erase(inv_inertia), erase(material), erase(level);
+  for (std::size_t s = slot; s < id.size(); ++s) index_of_id[id[s]] = static_cast<ParticleIndex>(s);
+}
+
 }  // namespace dem

@@ -3,11 +3,15 @@
 // field; a stage touches only those it needs. `id` holds the stable ParticleId of each slot and
 // `index_of_id` the inverse map; both change only in functions of this file.
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "engine/types.h"
 
 namespace dem {
+
+/// The index_of_id entry of a removed particle; its id is never given again.
+inline constexpr ParticleIndex removed_slot = std::numeric_limits<ParticleIndex>::max();
 
 struct State {
   std::vector<ParticleId> id;
@@ -21,13 +25,16 @@ struct State {
   std::vector<Real> inv_inertia;       // [1/(kg m^2)]
   std::vector<std::uint16_t> material;
   std::vector<std::int8_t> level;      // step = dt_base * 2^level; 0 under the fixed control
-  std::vector<ParticleIndex> index_of_id;
+  std::vector<ParticleIndex> index_of_id;  // per id ever given: its slot, or removed_slot
 
   std::size_t size() const { return position.size(); }
 
   /// Appends one particle with the next free id and returns its slot.
   ParticleIndex add(const Vec3& x, const Vec3& v, const Vec3& w, Real r, Real inv_m, Real inv_i,
                     std::uint16_t mat);
+  /// Removes the particle in `slot`; later slots move down by one, so slots stay in id order, and
+  /// its id maps to removed_slot from then on.
+  void remove(ParticleIndex slot);
 };
 
 /// Mass treated as infinite in momentum and energy audits (PHYSICS.md 1.6: a 1e20 kg "wall" swamps

@@ -8,7 +8,9 @@
 // All parallel loops run inside the World's own tbb::task_arena, so an embedding program keeps
 // control of its own threads. Results are bitwise identical for any thread count.
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +32,7 @@
 namespace dem {
 
 struct DoublingWork;
+struct Scene;
 
 /// Outcome of advancing; anything but `ok` leaves the state inspectable and the run stopped.
 enum class StepStatus { ok, non_finite };
@@ -62,6 +65,16 @@ struct RunCounters {
   std::uint64_t richardson_steps = 0;     // island steps that took the improved value
   std::uint64_t round_redos = 0;          // island rounds redone: a contact between islands or a skin overrun
   std::vector<std::uint64_t> level_histogram;  // accepted particle-steps per level - level_min
+};
+
+/// One contact's force at the last evaluation, as an embedding program reads it (World::contact_forces).
+struct ContactForce {
+  ParticleId particle = 0;  ///< pairs: the smaller id; walls: the particle
+  ParticleId partner = 0;   ///< pairs: the larger id; walls: equal to `particle`
+  int wall = -1;            ///< wall index (World::walls()) for a wall contact; -1 for a pair
+  Vec3 force = Vec3::Zero();  ///< on `particle`; the partner or the wall gets the negative [N]
+  Vec3 point = Vec3::Zero();  ///< contact point: mid-overlap on the line of centres or the wall normal [m]
+  Real overlap = 0;           ///< [m]
 };
 
 class World {
@@ -131,6 +144,66 @@ class World {
   /// Heap bytes held by particle, contact and broadphase arrays (capacities, scratch included).
   std::size_t memory_bytes() const;
 
+  // ---- Embedding API (DESIGN.md, Embedding; world_embedding.cpp) -------------------------------
+  // For programs that link dem::engine: build from a scene file, run with a callback at sync times,
+  // read state, contact forces and wall loads, feed and discharge particles between sync intervals.
+  // Every call below is made between sync intervals (never from inside the World's arena), and
+  // none changes results' independence of the thread count.
+
+  /// Builds a world from a scene file through the scene loader (scene_loader.h): its model,
+  /// materials, contacts, walls, particles, integrator and [run] threads. `overrides` are applied
+  /// as the CLI's --set ("integrator.dt=1e-4"). When `scene` is given it receives the loaded scene
+  /// (its [run] and [output] settings are the caller's to use). Throws InputError (file, line, field)
+  /// for a bad scene and std::invalid_argument as the constructor does.
+  static std::unique_ptr<World> load(const std::string& scene_path, const std::vector<std::string>& overrides = {},
+                                     Scene* scene = nullptr);
+
+  /// Called at each sync time reached by run_until; return false to stop the run there. It may
+  /// read the world and add or remove particles (it runs on the caller's thread, outside the arena).
+  using SyncCallback = std::function<bool(World&)>;
+  /// Advances one sync interval at a time until the first sync time at or after t [s], calling
+  /// on_sync after every interval (not before the first). Stops early when on_sync returns false
+  /// (the status is then ok and time() < t may hold) or when an interval returns non_finite (on_sync
+  /// is not called for that interval).
+  StepStatus run_until(Real t, const SyncCallback& on_sync);
+
+  /// Particles now in the world.
+  std::size_t particle_count() const { return state_.size(); }
+  /// Storage slot of a particle in state(), or nothing for an id never given or removed.
+  std::optional<ParticleIndex> index_of(ParticleId id) const;
+  /// State of a live particle by its stable id; throw std::out_of_range for an id never given or removed.
+  const Vec3& position(ParticleId id) const;          ///< [m]
+  const Vec3& velocity(ParticleId id) const;          ///< [m/s]
+  const Vec3& angular_velocity(ParticleId id) const;  ///< [rad/s]
+
+  /// Every pair and wall contact of the last force evaluation: pairs in key order (ascending id
+  /// pairs), then wall contacts in key order (ascending particle id, wall, feature). For each wall w,
+  /// the sum of -force over its contacts is wall_loads()[w].force (Newton's third law).
+  std::vector<ContactForce> contact_forces() const;
+  /// Index of the wall with this name (WallConfig::name), or nothing.
+  std::optional<std::size_t> find_wall(const std::string& name) const;
+
+  /// True when a sphere of `radius` [m] at `position` [m] would touch no particle and no wall
+  /// (a feed can test a spot before add_particle). 2D worlds use the position's x and y.
+  bool is_free(const Vec3& position, Real radius) const;
+  /// Adds a particle at the current sync time and returns its new id (ids are never reused).
+  /// The particle must be in free space (is_free): throws std::invalid_argument when it overlaps a
+  /// particle or a wall, names an unknown material, has a radius that is not > 0 and finite or a
+  /// non-finite state, or, for method exact with friction, would make more than one particle.
+  /// Contacts of the others keep their history; candidate pairs are rebuilt. Under step doubling
+  /// it starts at the level particles start at (0, clamped to the levels). Energy books: its kinetic,
+  /// rotational and potential energy join the balance's reference, as if present from the start.
+  ParticleId add_particle(const ParticleConfig& particle);
+  /// Removes a particle at the current sync time; false (and nothing changes) for an id never given
+  /// or already removed. Its contacts end; every other contact keeps its history, the others'
+  /// forces are re-summed without it, and candidate pairs are rebuilt. Energy books: what its
+  /// contacts dissipated stays dissipated; its potential energy leaves the balance's reference;
+  /// its kinetic and rotational energy and the elastic energy of its contacts' springs are booked
+  /// as removed_energy(), which energy_balance() counts as energy carried out (so its error stays ~0).
+  bool remove_particle(ParticleId id);
+  /// Energy carried out by removed particles since the start [J] (see remove_particle).
+  Real removed_energy() const { return removed_energy_; }
+
  private:
   void add_particles();
   void evaluate_forces(Real h, bool force_rebuild);
@@ -177,6 +250,9 @@ class World {
   Energies start_energies_;     // at construction, for the energy balance
   Real exact_dissipated_ = 0;   // energy the exact stepper's contacts dissipated [J]
   std::unique_ptr<DoublingWork> doubling_;  // step doubling's islands and scratch
+  // Embedding (world_embedding.cpp).
+  void refresh_after_population_change();
+  Real removed_energy_ = 0;     // kinetic, rotational and spring energy of removed particles [J]
 };
 
 }  // namespace dem
