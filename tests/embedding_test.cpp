@@ -179,6 +179,49 @@ TEST(Embedding, AddedParticleFallsFreelyAsTheOracle) {
   EXPECT_THROW(World(floor_scene(Control::fixed)).add_particle(bad), std::invalid_argument);
 }
 
+TEST(Embedding, FeedingAnEmptyWorldRunsAsBuildingItWithThoseParticles) {
+  // Built with no particle at all, the skin, the candidate lists and (doubling) the contact level
+  // and skin cap come from the particles fed later: the run is the one of a world built with them.
+  for (Control control : {Control::fixed, Control::doubling}) {
+    SCOPED_TRACE(control == Control::fixed ? "fixed" : "doubling");
+    WorldConfig c = floor_scene(control);
+    c.broadphase.skin = -1;
+    c.particles.clear();
+    for (int k = 0; k < 3; ++k)
+      c.particles.push_back(test::particle(Vec3(0.03 * k, 0, 0.05 + 0.02 * k), Vec3::Zero(), 0.01, 0.01));
+    World built(c);
+    WorldConfig empty = c;
+    empty.particles.clear();
+    World fed(empty);
+    EXPECT_EQ(fed.skin(), 0);
+    for (const ParticleConfig& p : c.particles) fed.add_particle(p);
+    EXPECT_EQ(fed.skin(), built.skin()) << "10% of the smallest radius";
+    ASSERT_EQ(built.run_until(0.5), StepStatus::ok);
+    ASSERT_EQ(fed.run_until(0.5), StepStatus::ok);
+    EXPECT_GT(built.pair_contacts().size() + built.wall_contacts().size(), 0u) << "they landed";
+    EXPECT_EQ(fed.state_hash(), built.state_hash());
+    EXPECT_NEAR(fed.energy_balance().error, built.energy_balance().error, 1e-12 * built.energy_balance().scale);
+  }
+}
+
+TEST(Embedding, RemovingAFreeParticleRunsAsNeverHavingHadIt) {
+  // Fixed control: a particle touching nothing does not change the others' steps, so after its
+  // removal the run is the one of a world built without it (it has the largest id: the same ids).
+  WorldConfig c = floor_scene(Control::fixed);
+  World twin(c);
+  c.particles.push_back(test::particle(Vec3(0.5, 0, 1.0), Vec3(0, 0, 2), 0.01, 0.01));
+  World world(c);
+  ASSERT_EQ(world.run_until(0.05), StepStatus::ok);
+  ASSERT_EQ(twin.run_until(0.05), StepStatus::ok);
+  ASSERT_TRUE(world.remove_particle(4));
+  EXPECT_EQ(world.state_hash(), twin.state_hash());
+  ASSERT_EQ(world.run_until(0.3), StepStatus::ok);
+  ASSERT_EQ(twin.run_until(0.3), StepStatus::ok);
+  EXPECT_EQ(world.state_hash(), twin.state_hash());
+  // The same books, up to the round-off of the removed particle's potential energy (~0.1 J here).
+  EXPECT_NEAR(world.energy_balance().error, twin.energy_balance().error, 1e-14);
+}
+
 /// Total |m v| of the audited particles: the scale of momentum round-off [kg m/s].
 Real momentum_scale(const World& w) {
   Real sum = 0;

@@ -4,7 +4,8 @@
 //   P = -sum over rotating walls w of Omega_w . T_w   [W]
 // with T_w the torque of the particles on wall w about its rotation centre (World::wall_loads) and
 // Omega_w its angular velocity now (Walls::angular_velocity). The rotating walls are the shell and
-// its lifters; a revolution lasts 2 pi / |Omega| at the shell's full speed.
+// its lifters; a revolution lasts 2 pi / |Omega| at the shell's full speed, and is counted by the
+// angle the shell has turned, so that a start-up ramp (slower first turn) is followed too.
 //
 // Usage: mill_power [scene.toml]   (default: scenes/mill_2d.toml, relative to the working folder)
 #include <cmath>
@@ -35,15 +36,17 @@ int main(int argc, char** argv) {
 
     std::printf("# %s: %zu rotating walls, one revolution = %.6g s\n", path.c_str(), driven.size(), revolution);
     std::printf("# revolution  end_time[s]  mean_power[W]\n");
-    int done = 0;           // revolutions completed
-    double energy = 0;      // work of the drive since the last revolution ended [J]
-    double since = 0;       // time that revolution ended [s]
+    int done = 0;       // revolutions completed
+    double angle = 0;   // turned by the shell since the start [rad]
+    double energy = 0;  // work of the drive since the last revolution ended [J]
+    double since = 0;   // time that revolution ended [s]
     const dem::StepStatus status = world->run_until(scene.run.until, [&](const dem::World& w) {
       const std::vector<dem::WallLoad> loads = w.wall_loads();
       double power = 0;  // [W]
       for (std::size_t k : driven) power -= w.walls().angular_velocity(k).dot(loads[k].torque);
       energy += power * w.sync_interval();
-      if (w.time() >= (done + 1) * revolution) {
+      angle += w.walls().angular_velocity(shell).norm() * w.sync_interval();
+      if (angle >= 2 * dem::pi * (done + 1)) {
         ++done;
         std::printf("%11d  %11.6f  %13.6g\n", done, w.time(), energy / (w.time() - since));
         energy = 0;
