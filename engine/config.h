@@ -3,6 +3,7 @@
 // default and an SI unit. Nothing here computes: materials.cpp, walls.cpp and world.cpp turn these
 // into run-time tables once, at set-up.
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -70,7 +71,10 @@ enum class WallKind {
   box,       ///< finite box: a container (inside = true) or a solid block (inside = false)
   cylinder,  ///< the inside of a cylinder (a mill shell), optionally of finite length
   prism,     ///< a solid convex polygon extruded along `axis` (a mill lifter bar)
+  mesh,      ///< a triangle mesh (a liner from an STL file): particles live on its triangles' front side
 };
+
+class TriangleMesh;  // engine/triangle_mesh.h
 
 /// A wall with prescribed motion: its geometry at time t is the t = 0 geometry translated by
 /// velocity * s(t) and rotated by angle |angular_velocity| * s(t) about rotation_center (which moves
@@ -80,7 +84,8 @@ struct WallConfig {
   std::string name;
   WallKind kind = WallKind::plane;
   std::string material = "default";
-  Vec3 point = Vec3::Zero();              // plane: a point on it; box: centre; cylinder: a point on the axis [m]
+  Vec3 point = Vec3::Zero();              // plane: a point on it; box: centre; cylinder: a point on the axis;
+                                          // mesh: where the STL file's origin goes [m]
   Vec3 normal = Vec3::UnitZ();            // plane: unit normal into the particles' side
   Vec3 half_extents = Vec3::Ones();       // box: half edge lengths along x, y, z at t = 0 [m]
   bool inside = true;                     // box: particles inside (container) or outside (solid)
@@ -89,6 +94,9 @@ struct WallConfig {
   Real length = std::numeric_limits<Real>::infinity();  // cylinder, prism: length centred on `point` [m]
   std::vector<Vec3> profile;              // prism: corners of its convex cross-section at t = 0, in the
                                           // plane through `point` perpendicular to `axis` [m]
+  std::string file;                       // mesh: STL file (binary or ASCII); read when `mesh` is empty
+  Real scale = 1;                         // mesh: metres per STL unit (0.001 for a file in mm) [m]
+  std::shared_ptr<const TriangleMesh> mesh;  // mesh: triangles at t = 0 relative to `point` [m]
   Vec3 velocity = Vec3::Zero();           // [m/s]
   Vec3 angular_velocity = Vec3::Zero();   // [rad/s]
   Vec3 rotation_center = Vec3::Zero();    // [m], used when use_rotation_center, else `point`

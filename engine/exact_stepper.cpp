@@ -446,7 +446,9 @@ NormalOscillator oscillator_of(const LawConstants& c, Real m_star) {
 /// The interactions of this step: candidate pairs and wall features that can touch within h.
 /// Key of an interaction for the sorted `forced` list: particle, then partner slot or wall feature.
 std::uint64_t interaction_key(ParticleIndex a, std::uint64_t partner) { return (std::uint64_t{a} << 32) | partner; }
-std::uint64_t wall_partner(std::size_t w, std::uint32_t f) { return 0x80000000u | (w << 8) | f; }
+std::uint64_t wall_partner(std::size_t w, std::uint32_t f) {
+  return 0x80000000u | wall_feature_code(static_cast<std::uint32_t>(w), f);
+}
 
 bool forced_contains(const std::vector<std::uint64_t>& forced, std::uint64_t key) {
   return std::binary_search(forced.begin(), forced.end(), key);
@@ -470,22 +472,34 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
     const Vec3 dg = gravity_of(s, a, set.gravity) - gravity_of(s, b, set.gravity);
     return gap <= anticipation_factor * ((s.velocity[a] - s.velocity[b]).norm() * h + 0.5 * dg.norm() * h * h);
   };
-  auto wall_interacts = [&](ParticleIndex p, std::size_t w, std::uint32_t f) {
-    if (s.inv_mass[p] == 0) return false;
-    if (forced_contains(work.forced, interaction_key(p, wall_partner(w, f)))) return true;
+  // Features of wall w particle p interacts with, ascending: those its sphere padded by the reach of
+  // the step touches, and the forced ones. Through touching_features, never a loop over all feature
+  // ids (a mesh wall has thousands).
+  auto wall_features = [&](ParticleIndex p, std::size_t w, std::vector<std::uint32_t>& out) {
+    out.clear();
+    if (s.inv_mass[p] == 0) return;
     const Real reach = anticipation_factor * ((s.velocity[p] - walls.velocity_at(w, s.position[p])).norm() * h +
                                               0.5 * set.gravity.norm() * h * h);
-    WallTouch t;
-    return walls.touch(w, f, s.position[p], s.radius[p] + reach, t);
+    out.resize(walls.touching_count(w, s.position[p], s.radius[p] + reach));
+    walls.touching_features(w, s.position[p], s.radius[p] + reach, out.data());
+    const auto first = std::lower_bound(work.forced.begin(), work.forced.end(), interaction_key(p, wall_partner(w, 0)));
+    const auto last = std::upper_bound(first, work.forced.end(), interaction_key(p, wall_partner(w, max_wall_features - 1)));
+    if (first == last) return;
+    const std::size_t touched = out.size();
+    for (auto it = first; it != last; ++it) out.push_back(static_cast<std::uint32_t>(*it) & (max_wall_features - 1));
+    std::inplace_merge(out.begin(), out.begin() + static_cast<std::ptrdiff_t>(touched), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
   };
   work.count.assign(n, 0);
   parallel_for(n, [&](std::size_t a) {
     std::uint32_t c = 0;
     for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k)
       c += pair_interacts(static_cast<ParticleIndex>(a), candidates.partner[k]) ? 1 : 0;
-    for (std::size_t w = 0; w < walls.count(); ++w)
-      for (std::uint32_t f = 0; f < walls.feature_count(w); ++f)
-        c += wall_interacts(static_cast<ParticleIndex>(a), w, f) ? 1 : 0;
+    thread_local std::vector<std::uint32_t> features;
+    for (std::size_t w = 0; w < walls.count(); ++w) {
+      wall_features(static_cast<ParticleIndex>(a), w, features);
+      c += static_cast<std::uint32_t>(features.size());
+    }
     work.count[a] = c;
   });
   exclusive_scan(work.count, work.offset);
@@ -502,9 +516,10 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
       work.interactions[slot++] = {a, b, ExactInteraction::no_wall, 0, oscillator_of(c, m.m_star), c.k_n, m.m_star, 0, 0,
                                    nullptr, c, ContactHistory{}, 0, {}};
     }
-    for (std::size_t w = 0; w < walls.count(); ++w)
-      for (std::uint32_t f = 0; f < walls.feature_count(w); ++f) {
-        if (!wall_interacts(a, w, f)) continue;
+    thread_local std::vector<std::uint32_t> features;
+    for (std::size_t w = 0; w < walls.count(); ++w) {
+      wall_features(a, w, features);
+      for (const std::uint32_t f : features) {
         const EffectiveMasses m = effective_masses(s.inv_mass[a], s.inv_inertia[a], s.radius[a], 0, 0,
                                                    std::numeric_limits<Real>::infinity());
         const LawConstants c = materials.constants(materials.pair_class(s.material[a], walls.material(w)), m);
@@ -512,6 +527,7 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
                                      m.m_star, 0, 0, nullptr, c, history_of(work, exact_history_key(s.id[a], w, f)),
                                      0, {}};
       }
+    }
   });
 }
 
@@ -551,11 +567,12 @@ void find_missed(const State& s, const Walls& walls, const broadphase::Candidate
       if ((s.inv_mass[a] > 0 || s.inv_mass[b] > 0) && (s.position[a] - s.position[b]).squaredNorm() < reach * reach)
         check(interaction_key(static_cast<ParticleIndex>(a), b));
     }
-    WallTouch t;
-    for (std::size_t w = 0; w < walls.count(); ++w)
-      for (std::uint32_t f = 0; f < walls.feature_count(w); ++f)
-        if (s.inv_mass[a] > 0 && walls.touch(w, f, s.position[a], s.radius[a], t))
-          check(interaction_key(static_cast<ParticleIndex>(a), wall_partner(w, f)));
+    thread_local std::vector<std::uint32_t> features;
+    for (std::size_t w = 0; w < walls.count() && s.inv_mass[a] > 0; ++w) {
+      features.resize(walls.touching_count(w, s.position[a], s.radius[a]));
+      walls.touching_features(w, s.position[a], s.radius[a], features.data());
+      for (const std::uint32_t f : features) check(interaction_key(static_cast<ParticleIndex>(a), wall_partner(w, f)));
+    }
     return any;
   };
   if (!parallel_any(s.size(), [&](std::size_t a) { return missed_in_row(a, nullptr); })) return;

@@ -71,7 +71,7 @@ struct ExactHistoryRecord {
 /// copy of some particles under other slots (an island of step doubling) finds the same records, and
 /// all records of one particle are adjacent; the wall and feature in the low bits.
 inline std::uint64_t exact_history_key(ParticleId id, std::size_t wall, std::uint32_t feature) {
-  return (std::uint64_t{id} << 32) | 0x80000000u | (std::uint64_t{wall} << 8) | feature;
+  return (std::uint64_t{id} << 32) | 0x80000000u | wall_feature_code(static_cast<std::uint32_t>(wall), feature);
 }
 
 /// One pair or wall contact taking part in an exact step.

@@ -160,13 +160,13 @@ int anticipation_level(const IslandState& island, const broadphase::CandidatePai
         if (2 * closing > gap) return false;
       }
       if (s.inv_mass[a] == 0) continue;
-      std::uint32_t features[6];
       for (std::size_t w = 0; w < walls.count(); ++w) {
         const Real closing = (s.velocity[a] - walls.velocity_at(w, s.position[a])).norm() * h +
                              0.5 * acceleration(a).norm() * h * h;
-        // A wall feature within twice the closing distance that is not touched yet.
-        if (walls.touching_features(w, s.position[a], s.radius[a] + 2 * closing, features) >
-            walls.touching_features(w, s.position[a], s.radius[a], features))
+        // A wall feature within twice the closing distance that is not touched yet (the features
+        // touched at a radius are touched at any larger one, so a larger count means a new one).
+        if (walls.touching_count(w, s.position[a], s.radius[a] + 2 * closing) >
+            walls.touching_count(w, s.position[a], s.radius[a]))
           return false;
       }
     }

@@ -325,4 +325,9 @@ StlMesh read_stl(const std::string& path, Real scale) {
   return parse_stl(bytes, path, scale);
 }
 
+TriangleMesh read_stl_mesh(const std::string& path, Real scale) {
+  StlMesh stl = read_stl(path, scale);
+  return TriangleMesh(std::move(stl.vertices), std::move(stl.triangles));
+}
+
 }  // namespace dem

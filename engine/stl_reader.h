@@ -33,6 +33,7 @@
 #include <string_view>
 #include <vector>
 
+#include "engine/triangle_mesh.h"
 #include "engine/types.h"
 
 namespace dem {
@@ -52,5 +53,8 @@ StlMesh read_stl(const std::string& path, Real scale = 1);
 
 /// The same from the file's bytes; `name` is the file named in error messages.
 StlMesh parse_stl(std::string_view bytes, const std::string& name, Real scale = 1);
+
+/// read_stl, then the TriangleMesh of its triangles (connectivity, facets, lookup grid).
+TriangleMesh read_stl_mesh(const std::string& path, Real scale = 1);
 
 }  // namespace dem

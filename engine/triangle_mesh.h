@@ -32,11 +32,13 @@
 // Sides. The front of a triangle is the side its vertex order runs counter-clockwise from (the
 // right-hand rule, as in STL). When every edge shared by two triangles is run in opposite directions
 // by them and no edge has more than two triangles, the mesh is one-sided: particles live in front
-// (a liner's triangles face the charge). A face contact then needs the centre less than a radius
-// behind the plane (overlap = radius - signed distance, as for a plane wall), and an edge or vertex
-// contact needs the centre in front of at least one adjacent triangle. Otherwise (inconsistent
-// orientation, non-manifold edges) the mesh is two-sided: both sides repel, the normal points to
-// the centre's side and the overlap is radius - |distance|.
+// (a liner's triangles face the charge). A face contact then needs the centre in front of (or on)
+// the plane, and an edge or vertex contact needs it in front of at least one adjacent triangle.
+// Unlike a plane wall, which also pushes back a centre less than a radius behind it, a face ignores a
+// centre behind it: otherwise a sphere on a solid thinner than its diameter (a lifter plate) would be
+// pushed through by the far side's face. Overlaps stay below the radius, so nothing is lost in a
+// sound run. Otherwise (inconsistent orientation, non-manifold edges) the mesh is two-sided: both
+// sides repel, the normal points to the centre's side and the overlap is radius - |distance|.
 //
 // Lookup. Triangles are binned into a uniform grid of cubic cells (hashed integer cell coordinates,
 // as in broadphase/grid.h) covering the cells each triangle actually crosses; a query visits the

@@ -20,9 +20,18 @@ inline std::uint64_t pair_key(ParticleId a, ParticleId b) {
   return (std::uint64_t{lo} << 32) | hi;
 }
 
+/// A wall and one of its features packed in 31 bits (bit 31 stays free for the exact stepper's flag):
+/// feature ids below 2^22 (a triangle mesh has one per face, edge and vertex), wall indices below 2^9.
+inline constexpr int wall_feature_bits = 22;
+inline constexpr std::uint32_t max_wall_features = std::uint32_t{1} << wall_feature_bits;
+inline constexpr std::uint32_t max_walls = std::uint32_t{1} << 9;
+inline std::uint32_t wall_feature_code(std::uint32_t wall, std::uint32_t feature) {
+  return (wall << wall_feature_bits) | feature;
+}
+
 /// Contact key of a particle touching feature `feature` of wall `wall`.
 inline std::uint64_t wall_key(ParticleId particle, std::uint32_t wall, std::uint32_t feature) {
-  return (std::uint64_t{particle} << 32) | (std::uint64_t{wall} << 8) | feature;
+  return (std::uint64_t{particle} << 32) | wall_feature_code(wall, feature);
 }
 
 inline constexpr Real pi = 3.14159265358979323846;

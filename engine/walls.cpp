@@ -4,6 +4,9 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
+
+#include "engine/stl_reader.h"
 
 namespace dem {
 
@@ -24,11 +27,22 @@ Walls::Walls(const std::vector<WallConfig>& walls, const MaterialTable& material
     if (!w.use_rotation_center) w.rotation_center = w.point;
     if (w.kind == WallKind::plane) w.normal.normalize();
     if (w.kind == WallKind::cylinder || w.kind == WallKind::prism) w.axis.normalize();
+    if (w.kind == WallKind::mesh) {
+      if (!w.mesh && w.file.empty()) throw std::invalid_argument("mesh wall '" + w.name + "' needs a file or a mesh");
+      if (!w.mesh) w.mesh = std::make_shared<const TriangleMesh>(read_stl_mesh(w.file, w.scale));
+      if (w.mesh->feature_count() >= max_wall_features)
+        throw std::invalid_argument("mesh wall '" + w.name + "' has " + std::to_string(w.mesh->feature_count()) +
+                                    " faces, edges and vertices; at most " + std::to_string(max_wall_features - 1) +
+                                    " fit a contact key");
+    }
     const int m = materials.find(w.material);
     if (m < 0) throw std::invalid_argument("wall '" + w.name + "' names an unknown material '" + w.material + "'");
     material_.push_back(static_cast<std::uint16_t>(m));
     prism_.push_back(w.kind == WallKind::prism ? make_prism(w) : PrismShape{});
   }
+  if (config_.size() > max_walls)
+    throw std::invalid_argument("at most " + std::to_string(max_walls) + " walls fit a contact key, not " +
+                                std::to_string(config_.size()));
   pose_.resize(config_.size());
   set_time(0);
 }
@@ -59,7 +73,15 @@ Walls::PrismShape Walls::make_prism(const WallConfig& w) {
 
 std::uint32_t Walls::feature_count(std::size_t w) const {
   const WallConfig& c = config_[w];
+  if (c.kind == WallKind::mesh) return static_cast<std::uint32_t>(c.mesh->feature_count());
   return c.kind == WallKind::box && c.inside ? 6 : 1;
+}
+
+const std::vector<MeshContact>& Walls::mesh_contacts(std::size_t w, const Vec3& x, Real r) const {
+  thread_local std::vector<MeshContact> contacts;
+  const Pose& p = pose_[w];
+  config_[w].mesh->query(p.rotation.transpose() * (x - p.point), r, contacts);  // into the t = 0 frame
+  return contacts;
 }
 
 void Walls::set_time(Real t) {
@@ -131,6 +153,15 @@ bool Walls::touch(std::size_t w, std::uint32_t f, const Vec3& x, Real r, WallTou
     }
     case WallKind::prism:
       return touch_prism(w, x, r, out);
+    case WallKind::mesh: {
+      const std::vector<MeshContact>& contacts = mesh_contacts(w, x, r);
+      const auto it = std::lower_bound(contacts.begin(), contacts.end(), f,
+                                       [](const MeshContact& m, std::uint32_t id) { return m.feature < id; });
+      if (it == contacts.end() || it->feature != f) return false;
+      out.overlap = it->overlap;
+      out.normal = p.rotation * it->normal;
+      return true;
+    }
   }
   return false;
 }
@@ -198,9 +229,19 @@ std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std
     }
     return count;
   }
+  if (c.kind == WallKind::mesh) {
+    for (const MeshContact& m : mesh_contacts(w, x, r)) features[count++] = m.feature;
+    return count;
+  }
   WallTouch t;
   if (touch(w, 0, x, r, t)) features[count++] = 0;
   return count;
+}
+
+std::uint32_t Walls::touching_count(std::size_t w, const Vec3& x, Real r) const {
+  if (config_[w].kind == WallKind::mesh) return static_cast<std::uint32_t>(mesh_contacts(w, x, r).size());
+  std::uint32_t features[6];
+  return touching_features(w, x, r, features);
 }
 
 Vec3 Walls::velocity_at(std::size_t w, const Vec3& x) const {

@@ -1,16 +1,18 @@
 #pragma once
 // Walls with prescribed motion: planes, finite boxes (container or solid), the inside of a
-// cylinder and solid convex prisms (lifter bars). A wall's geometry at time t is its t = 0 geometry
+// cylinder, solid convex prisms (lifter bars) and triangle meshes (liners from STL files). A wall's geometry at time t is its t = 0 geometry
 // translated by v s(t) and rotated by |Omega| s(t) about its rotation centre, s(t) the distance
 // factor of its start-up ramp (config.h), exact in t with no accumulated drift. Walls have infinite mass.
 // Threading: after set_time, all queries are const and safe from any thread.
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <Eigen/Geometry>
 
 #include "engine/config.h"
 #include "engine/materials.h"
+#include "engine/triangle_mesh.h"
 
 namespace dem {
 
@@ -29,6 +31,9 @@ struct WallLoad {
 class Walls {
  public:
   Walls() = default;
+  /// A mesh wall without `mesh` reads its `file` (scaled by `scale`): InputError on a bad file.
+  /// Throws std::invalid_argument for more than max_walls walls or a mesh of max_wall_features
+  /// features or more (types.h: they must fit a contact key).
   Walls(const std::vector<WallConfig>& walls, const MaterialTable& materials);
 
   /// Throws std::invalid_argument naming the problem when a prism's profile is not a convex polygon.
@@ -37,7 +42,9 @@ class Walls {
   std::size_t count() const { return config_.size(); }
   const WallConfig& config(std::size_t w) const { return config_[w]; }
   std::uint16_t material(std::size_t w) const { return material_[w]; }
-  /// Features a particle can touch at once: 6 faces inside a box, else 1.
+  /// Feature ids of wall w lie in [0, feature_count(w)): 6 faces inside a box, a mesh's faces, edges
+  /// and vertices (triangle_mesh.h), else 1. Not a bound on the features touched at once: loop over
+  /// touching_features, never over all ids (a mesh has thousands).
   std::uint32_t feature_count(std::size_t w) const;
 
   /// Moves every wall to its pose at time t [s].
@@ -45,9 +52,15 @@ class Walls {
 
   /// Contact of a sphere (centre x, radius r) with feature f of wall w; false if not touching.
   bool touch(std::size_t w, std::uint32_t f, const Vec3& x, Real r, WallTouch& out) const;
-  /// Features of wall w a sphere touches, written to features[] (room for feature_count(w));
-  /// returns how many. The same answers as touch() on each feature, with the geometry set up once.
+  /// Features of wall w a sphere touches, in ascending order, written to features[] (room for
+  /// touching_count(w, x, r) entries; at most 6 for walls other than meshes); returns how many. The
+  /// same answers as touch() on each feature, with the geometry set up once. A feature touched at
+  /// radius r is touched at any larger radius too (for a mesh: triangle_mesh.h's rules keep that).
   std::uint32_t touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features) const;
+  /// How many features touching_features would write.
+  std::uint32_t touching_count(std::size_t w, const Vec3& x, Real r) const;
+  /// The mesh of a mesh wall (its t = 0 geometry relative to `point`), else null.
+  const TriangleMesh* mesh(std::size_t w) const { return config_[w].mesh.get(); }
 
   /// Velocity of the wall's material at point p [m/s].
   Vec3 velocity_at(std::size_t w, const Vec3& p) const;
@@ -77,6 +90,9 @@ class Walls {
   };
   static PrismShape make_prism(const WallConfig& w);
   bool touch_prism(std::size_t w, const Vec3& x, Real r, WallTouch& out) const;
+  /// Contacts of the sphere with mesh wall w, in the mesh's frame (a thread-local list, valid until
+  /// the calling thread's next call).
+  const std::vector<MeshContact>& mesh_contacts(std::size_t w, const Vec3& x, Real r) const;
 
   std::vector<WallConfig> config_;
   std::vector<PrismShape> prism_;  // per wall; empty shape for other kinds

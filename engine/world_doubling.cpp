@@ -37,10 +37,9 @@ bool flies_free(const State& s, std::size_t p, const Walls& walls, const std::ve
                 const Vec3& gravity, Real h) {
   if (wall_start[p + 1] != wall_start[p]) return false;
   const Vec3 a = s.inv_mass[p] == 0 ? Vec3(Vec3::Zero()) : gravity;
-  std::uint32_t features[6];
   for (std::size_t w = 0; w < walls.count(); ++w) {
     const Real closing = (s.velocity[p] - walls.velocity_at(w, s.position[p])).norm() * h + 0.5 * a.norm() * h * h;
-    if (walls.touching_features(w, s.position[p], s.radius[p] + 2 * closing, features) > 0) return false;
+    if (walls.touching_count(w, s.position[p], s.radius[p] + 2 * closing) > 0) return false;
   }
   return true;
 }

@@ -103,16 +103,13 @@ std::optional<std::size_t> World::find_wall(const std::string& name) const {
 bool World::is_free(const Vec3& position, Real radius) const {
   Vec3 x = position;
   if (config_.model.dimension == 2) x.z() = 0;
-  // The contact tests of contacts.cpp: centres closer than the sum of radii, walls by touching_features.
+  // The contact tests of contacts.cpp: centres closer than the sum of radii, walls by touching_count.
   for (std::size_t p = 0; p < state_.size(); ++p) {
     const Real reach = radius + state_.radius[p];
     if ((state_.position[p] - x).squaredNorm() < reach * reach) return false;
   }
-  std::uint32_t feature_capacity = 0;
-  for (std::size_t w = 0; w < walls_.count(); ++w) feature_capacity = std::max(feature_capacity, walls_.feature_count(w));
-  std::vector<std::uint32_t> features(feature_capacity);
   for (std::size_t w = 0; w < walls_.count(); ++w)
-    if (walls_.touching_features(w, x, radius, features.data()) > 0) return false;
+    if (walls_.touching_count(w, x, radius) > 0) return false;
   return true;
 }
 
