@@ -113,6 +113,7 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
         fresh.work[k] = contacts.work[old];
         fresh.elastic[k] = contacts.elastic[old];
         fresh.overlap[k] = contacts.overlap[old];
+        fresh.force[k] = contacts.force[old];
         ++old;
         continue;
       }
@@ -124,6 +125,7 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
       fresh.work[k] = 0;
       fresh.elastic[k] = 0;
       fresh.overlap[k] = 0;
+      fresh.force[k].setZero();
     }
     for (; old < old_end; ++old) ended += contacts.work[old] - contacts.elastic[old];
     work.row_ended[a] = ended;
@@ -139,8 +141,9 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
   work.count.resize(n);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t c = 0;
+    std::uint32_t features[6];
     if (s.inv_mass[p] > 0)
-      for (std::size_t w = 0; w < walls.count(); ++w) c += walls.touching_count(w, s.position[p], s.radius[p]);
+      for (std::size_t w = 0; w < walls.count(); ++w) c += walls.touching_features(w, s.position[p], s.radius[p], features);
     work.count[p] = c;
   });
   exclusive_scan(work.count, wall_start);
@@ -148,15 +151,15 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
   fresh.resize(wall_start[n]);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t slot = wall_start[p];
+    std::uint32_t features[6];
     for (std::size_t w = 0; w < walls.count(); ++w) {
-      // The features go straight into this particle's slots, whose number the count above fixed.
-      const std::uint32_t touched =
-          s.inv_mass[p] > 0 ? walls.touching_features(w, s.position[p], s.radius[p], fresh.feature.data() + slot) : 0;
+      const std::uint32_t touched = s.inv_mass[p] > 0 ? walls.touching_features(w, s.position[p], s.radius[p], features) : 0;
       for (std::uint32_t q = 0; q < touched; ++q) {
-        const std::uint32_t f = fresh.feature[slot];
+        const std::uint32_t f = features[q];
         fresh.key[slot] = wall_key(s.id[p], static_cast<std::uint32_t>(w), f);
         fresh.particle[slot] = static_cast<ParticleIndex>(p);
         fresh.wall[slot] = static_cast<std::uint32_t>(w);
+        fresh.feature[slot] = f;
         const std::ptrdiff_t old = find_key(contacts.key, fresh.key[slot]);
         if (old >= 0) {
           fresh.constants[slot] = contacts.constants[old];
@@ -164,6 +167,7 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
           fresh.work[slot] = contacts.work[old];
           fresh.elastic[slot] = contacts.elastic[old];
           fresh.overlap[slot] = contacts.overlap[old];
+          fresh.force[slot] = contacts.force[old];
         } else {
           const EffectiveMasses m = effective_masses(s.inv_mass[p], s.inv_inertia[p], s.radius[p], 0, 0,
                                                      std::numeric_limits<Real>::infinity());
@@ -172,6 +176,7 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
           fresh.work[slot] = 0;
           fresh.elastic[slot] = 0;
           fresh.overlap[slot] = 0;
+          fresh.force[slot].setZero();
         }
         ++slot;
       }

@@ -28,7 +28,7 @@ void pair_forces(const State& s, PairContacts& c, Real h) {
     ContactKinematics kin;
     kin.normal = n;
     kin.overlap = overlap;
-    kin.previous_overlap = c.overlap[k];
+    kin.previous_force = c.force[k];
     kin.overlap_rate = -u.dot(n);
     kin.tangential_velocity = u + kin.overlap_rate * n;
     kin.rolling_velocity = w_rel;
@@ -74,7 +74,7 @@ void wall_forces(const State& s, const Walls& walls, WallContacts& c, Real h) {
     ContactKinematics kin;
     kin.normal = n;
     kin.overlap = touch.overlap;
-    kin.previous_overlap = c.overlap[k];
+    kin.previous_force = c.force[k];
     kin.overlap_rate = -u.dot(n);
     kin.tangential_velocity = u + kin.overlap_rate * n;
     kin.rolling_velocity = w_rel;

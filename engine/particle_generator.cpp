@@ -1,5 +1,6 @@
 #include "engine/particle_generator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <unordered_map>
 
@@ -80,6 +81,27 @@ struct PlacementGrid {
 };
 
 }  // namespace
+
+Real radius_moment(const GeneratorConfig& g, int k) {
+  const Real a = g.r_min, b = g.r_max;
+  if (g.distribution == SizeDistribution::mono || !(b > a)) return std::pow(g.mean > 0 ? g.mean : a, k);
+  if (g.distribution == SizeDistribution::uniform) return (std::pow(b, k + 1) - std::pow(a, k + 1)) / ((k + 1) * (b - a));
+  // Truncated normal or lognormal: Simpson's rule on the density (unnormalised) over [a, b].
+  auto density = [&](Real r) {
+    if (g.distribution == SizeDistribution::normal) return g.sigma > 0 ? std::exp(-0.5 * std::pow((r - g.mean) / g.sigma, 2)) : Real(r == g.mean);
+    return g.sigma > 0 ? std::exp(-0.5 * std::pow(std::log(r / g.mean) / g.sigma, 2)) / r : Real(r == g.mean);
+  };
+  if (!(g.sigma > 0)) return std::pow(std::clamp(g.mean, a, b), k);
+  const int n = 2000;
+  Real weight = 0, moment = 0;
+  for (int i = 0; i <= n; ++i) {
+    const Real r = a + (b - a) * i / n;
+    const Real w = (i == 0 || i == n ? 1 : (i % 2 ? 4 : 2)) * density(r);
+    weight += w;
+    moment += w * std::pow(r, k);
+  }
+  return moment / weight;
+}
 
 GeneratorResult generate_particles(const GeneratorConfig& g, std::vector<ParticleConfig>& particles) {
   Real largest = g.r_max > 0 ? g.r_max : g.mean;

@@ -35,6 +35,10 @@ struct GeneratorResult {
   std::string message;
 };
 
+/// Mean of r^k over the configured (truncated) radius distribution [m^k], e.g. k = 3 for the mean
+/// sphere volume over 4 pi / 3.
+Real radius_moment(const GeneratorConfig& config, int k);
+
 /// Appends `count` non-overlapping particles, wholly inside the region, to `particles` (which may
 /// already hold particles to avoid). Fails with a message when the region is too full.
 GeneratorResult generate_particles(const GeneratorConfig& config, std::vector<ParticleConfig>& particles);

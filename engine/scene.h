@@ -3,10 +3,12 @@
 // TOML file (scenes/README.md documents every key) or in code by an embedding program.
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "engine/config.h"
+#include "engine/mill.h"
 
 namespace dem {
 
@@ -47,6 +49,7 @@ struct Scene {
   RunSettings run;
   OutputSettings output;
   AccuracySettings accuracy;
+  std::optional<MillConfig> mill;    // a [mill] section: its walls are in world.walls from mill->first_wall
   Real max_initial_overlap = 0.01;   // relative to the smaller radius of a pair [-]
   std::vector<ParticleSource> sources;  // one per particle of world.particles
   std::vector<std::uint64_t> seeds;     // generator seeds, for provenance

@@ -17,7 +17,7 @@
 #include "engine/input_error.h"
 #include "engine/particle_csv.h"
 #include "engine/particle_generator.h"
-#include "engine/stl_reader.h"
+#include "engine/mill.h"
 #include "engine/walls.h"
 
 namespace dem {
@@ -400,16 +400,14 @@ void read_contacts(TableReader& top, Scene& scene) {
   }
 }
 
-void read_walls(TableReader& top, Scene& scene, const std::string& base_dir) {
+void read_walls(TableReader& top, Scene& scene) {
   const auto tables = top.tables("walls");
-  if (tables.size() > max_walls)
-    top.fail("walls", "at most " + std::to_string(max_walls) + " walls, not " + std::to_string(tables.size()));
   for (std::size_t i = 0; i < tables.size(); ++i) {
     TableReader r(*tables[i], indexed("walls", i), top.file());
     WallConfig w;
     w.name = r.string("name", "wall" + std::to_string(i));
-    const std::size_t kind = r.choice("type", {"plane", "box", "cylinder", "prism", "mesh"}, 99);
-    if (kind == 99) r.fail("type", "is required: one of plane, box, cylinder, prism, mesh");
+    const std::size_t kind = r.choice("type", {"plane", "box", "cylinder", "prism"}, 99);
+    if (kind == 99) r.fail("type", "is required: one of plane, box, cylinder, prism");
     w.kind = static_cast<WallKind>(kind);
     w.material = read_material_name(r, scene, "material");
     w.point = r.vec3("point", Vec3::Zero());
@@ -425,23 +423,6 @@ void read_walls(TableReader& top, Scene& scene, const std::string& base_dir) {
       if (w.axis.norm() == 0) r.fail("axis", "must be a non-zero vector");
       w.radius = r.required_positive("radius");
       if (r.has("length")) w.length = r.positive("length", 1);
-    } else if (w.kind == WallKind::mesh) {
-      w.scale = r.positive("scale", 1);
-      const std::string name = r.string("file", "");
-      if (name.empty()) r.fail("file", "is required: an STL file (binary or ASCII), relative to the scene file");
-      const std::filesystem::path path = std::filesystem::path(base_dir) / name;
-      if (!std::filesystem::exists(path)) r.fail("file", "file not found: " + path.string());
-      w.file = path.string();
-      try {
-        w.mesh = std::make_shared<const TriangleMesh>(read_stl_mesh(w.file, w.scale));
-      } catch (const InputError& e) {
-        r.fail("file", std::string("not a valid STL file: ") + e.what());
-      } catch (const std::invalid_argument& e) {
-        r.fail("file", std::string("not a valid STL file: ") + w.file + ": " + e.what());
-      }
-      if (w.mesh->feature_count() >= max_wall_features)
-        r.fail("file", "the mesh has " + std::to_string(w.mesh->feature_count()) + " faces, edges and vertices; at most " +
-                           std::to_string(max_wall_features - 1) + " fit a contact key");
     } else {
       w.axis = r.vec3("axis", Vec3::UnitZ());
       if (w.axis.norm() == 0) r.fail("axis", "must be a non-zero vector");
@@ -463,6 +444,34 @@ void read_walls(TableReader& top, Scene& scene, const std::string& base_dir) {
     w.ramp_time = r.non_negative("ramp_time", 0);
     r.finish();
     scene.world.walls.push_back(w);
+  }
+}
+
+/// The `size` table of a generator or a mill charge: the radius distribution.
+void read_size(TableReader& r, GeneratorConfig& g) {
+  const toml::table* size = r.table("size");
+  if (!size) r.fail("size", "is required: { distribution = \"mono\", radius = ... } (or uniform, normal, lognormal)");
+  {
+    TableReader s(*size, r.field("size"), r.file());
+    g.distribution = static_cast<SizeDistribution>(s.choice("distribution", {"mono", "uniform", "normal", "lognormal"}, 0));
+    switch (g.distribution) {
+      case SizeDistribution::mono:
+        g.r_min = g.r_max = g.mean = s.required_positive("radius");
+        break;
+      case SizeDistribution::uniform:
+        g.r_min = s.required_positive("min");
+        g.r_max = s.required_positive("max");
+        break;
+      case SizeDistribution::normal:
+      case SizeDistribution::lognormal:
+        g.mean = s.required_positive(g.distribution == SizeDistribution::normal ? "mean" : "median");
+        g.sigma = s.non_negative(g.distribution == SizeDistribution::normal ? "std" : "sigma", 0);
+        g.r_min = s.required_positive("min");
+        g.r_max = s.required_positive("max");
+        break;
+    }
+    if (g.r_max < g.r_min) s.fail("max", "must be >= min");
+    s.finish();
   }
 }
 
@@ -532,30 +541,7 @@ void read_particles(TableReader& top, Scene& scene, const std::string& base_dir)
       }
       reg.finish();
     }
-    const toml::table* size = r.table("size");
-    if (!size) r.fail("size", "is required: { distribution = \"mono\", radius = ... } (or uniform, normal, lognormal)");
-    {
-      TableReader s(*size, r.field("size"), top.file());
-      g.distribution = static_cast<SizeDistribution>(s.choice("distribution", {"mono", "uniform", "normal", "lognormal"}, 0));
-      switch (g.distribution) {
-        case SizeDistribution::mono:
-          g.r_min = g.r_max = g.mean = s.required_positive("radius");
-          break;
-        case SizeDistribution::uniform:
-          g.r_min = s.required_positive("min");
-          g.r_max = s.required_positive("max");
-          break;
-        case SizeDistribution::normal:
-        case SizeDistribution::lognormal:
-          g.mean = s.required_positive(g.distribution == SizeDistribution::normal ? "mean" : "median");
-          g.sigma = s.non_negative(g.distribution == SizeDistribution::normal ? "std" : "sigma", 0);
-          g.r_min = s.required_positive("min");
-          g.r_max = s.required_positive("max");
-          break;
-      }
-      if (g.r_max < g.r_min) s.fail("max", "must be >= min");
-      s.finish();
-    }
+    read_size(r, g);
     r.finish();
     const std::size_t before = scene.world.particles.size();
     const GeneratorResult result = generate_particles(g, scene.world.particles);
@@ -567,6 +553,84 @@ void read_particles(TableReader& top, Scene& scene, const std::string& base_dir)
 }
 
 /// Returns whether the scene sets level_max.
+/// [mill]: the shell, lifters and end walls as prescribed-motion walls, and the charge (engine/mill.h).
+void read_mill(TableReader& top, Scene& scene) {
+  const toml::table* t = top.table("mill");
+  if (!t) return;
+  TableReader r(*t, "mill", top.file());
+  MillConfig m;
+  m.dimension = scene.world.model.dimension;
+  m.diameter = r.required_positive("diameter");
+  if (m.dimension == 3) m.length = r.required_positive("length");
+  m.lifters = r.integer("lifters", 0);
+  if (m.lifters < 0 || m.lifters > 360) r.fail("lifters", "must be a number of lifter bars from 0 to 360");
+  if (m.lifters > 0) {
+    m.lifter_height = r.required_positive("lifter_height");
+    if (m.lifter_height >= 0.25 * m.diameter) r.fail("lifter_height", "must be less than a quarter of the diameter");
+    m.lifter_width = r.required_positive("lifter_width");
+    m.lifter_face_angle = r.non_negative("lifter_face_angle", 0);
+    if (m.lifter_face_angle > 60) r.fail("lifter_face_angle", "must be from 0 to 60 degrees");
+    const Real base = m.lifter_width + 2 * 1.25 * m.lifter_height * std::tan(m.lifter_face_angle * pi / 180);
+    if (m.lifters * base >= pi * m.diameter) r.fail("lifters", "the lifters' bases overlap: fewer, narrower or steeper lifters");
+  }
+  m.direction = r.choice("direction", {"counterclockwise", "clockwise"}, 0) == 0 ? 1 : -1;
+  m.ramp_time = r.non_negative("ramp_time", 0);
+  m.discard_revolutions = r.integer("discard_revolutions", 2);
+  if (m.discard_revolutions < 0) r.fail("discard_revolutions", "must be >= 0");
+  m.material = read_material_name(r, scene, "material");
+  const Vec3 g = scene.world.model.gravity;
+  if (!(g.norm() > 0) || std::abs(g.z()) > 1e-9 * g.norm())
+    r.fail("diameter", "a mill turns about the z axis: scene.gravity must be non-zero and in the xy plane");
+
+  // The charge: a generator filling the space inside the lifter tips; it falls into place at the start.
+  const toml::table* charge_table = r.table("charge");
+  if (!charge_table) r.fail("charge", "is required: { filling = 0.3, size = { radius = ... } } or { count = ..., ... }");
+  TableReader c(*charge_table, r.field("charge"), top.file());
+  GeneratorConfig charge;
+  charge.seed = c.unsigned_integer("seed", 1);
+  charge.material = read_material_name(c, scene, "material");
+  charge.max_attempts = c.integer("max_attempts", 1000);
+  charge.dimension = m.dimension;
+  read_size(c, charge);
+  const Real mean_radius = radius_moment(charge, 1);
+  if (2 * charge.r_max >= mill_free_radius(m)) c.fail("size", "balls must be smaller than the space inside the lifters");
+  if (c.has("count") == c.has("filling")) c.fail("count", "give either count (balls) or filling (fraction of the mill volume the charge fills at rest)");
+  if (c.has("count")) {
+    charge.count = c.integer("count", 0);
+    if (charge.count <= 0) c.fail("count", "must be a positive number of balls");
+  } else {
+    const Real filling = c.positive("filling", 0.3);
+    if (filling >= 0.6) c.fail("filling", "must be below 0.6 (a fraction of the mill volume)");
+    const Real solids = c.positive("solids_fraction", m.dimension == 3 ? 0.6 : 0.8);
+    if (solids >= 1) c.fail("solids_fraction", "must be in (0, 1): the fraction of the charge's bulk volume that is balls");
+    const Real R = 0.5 * m.diameter;
+    const Real bulk = m.dimension == 3 ? pi * R * R * m.length : pi * R * R;
+    const Real ball = m.dimension == 3 ? 4.0 / 3.0 * pi * radius_moment(charge, 3) : pi * radius_moment(charge, 2);
+    const Real count = std::round(filling * solids * bulk / ball);
+    if (!(count >= 1) || count > 1e8) c.fail("filling", "gives " + TableReader::number(count) + " balls; at least 1 and at most 1e8");
+    charge.count = static_cast<int>(count);
+  }
+  c.finish();
+  // Speed: rpm, or a fraction of the critical speed for the mean ball.
+  m.critical_speed = critical_speed(m.diameter, 2 * mean_radius, g.norm());
+  if (r.has("rpm") == r.has("critical_fraction")) r.fail("rpm", "give either rpm or critical_fraction (of the critical speed)");
+  m.speed = r.has("rpm") ? r.positive("rpm", 1) * 2 * pi / 60 : r.positive("critical_fraction", 0.75) * m.critical_speed;
+  r.finish();
+
+  charge.region = GeneratorRegion::cylinder;
+  charge.center = Vec3::Zero();
+  charge.axis = Vec3::UnitZ();
+  charge.radius = mill_free_radius(m);
+  charge.length = m.dimension == 3 ? m.length : 0;
+  const std::size_t before = scene.world.particles.size();
+  const GeneratorResult result = generate_particles(charge, scene.world.particles);
+  if (!result.ok) c.fail(c.has("count") ? "count" : "filling", "the charge does not fit loosely in the mill: " + result.message);
+  for (std::size_t k = before; k < scene.world.particles.size(); ++k) scene.sources.push_back(source_of(*charge_table, top.file(), c.path()));
+  scene.seeds.push_back(charge.seed);
+  m.first_wall = add_mill_walls(m, scene.world.walls);
+  scene.mill = m;
+}
+
 bool read_integrator(TableReader& top, Scene& scene) {
   IntegratorConfig& c = scene.world.integrator;
   const toml::table* t = top.table("integrator");
@@ -732,15 +796,6 @@ std::uint64_t fnv1a(const std::string& text) {
   return h;
 }
 
-/// FNV-1a of a mesh's vertex coordinates and corner indices.
-std::uint64_t mesh_fingerprint(const TriangleMesh& mesh) {
-  std::string bytes;
-  bytes.append(reinterpret_cast<const char*>(mesh.vertices().data()), mesh.vertices().size() * sizeof(Vec3));
-  bytes.append(reinterpret_cast<const char*>(mesh.triangles().data()),
-               mesh.triangles().size() * sizeof(std::array<std::uint32_t, 3>));
-  return fnv1a(bytes);
-}
-
 }  // namespace
 
 Scene load_scene_text(const std::string& text, const std::string& file, const std::string& base_dir,
@@ -765,8 +820,9 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   }
   read_materials(top, scene);
   read_contacts(top, scene);
-  read_walls(top, scene, base_dir);
+  read_walls(top, scene);
   read_particles(top, scene, base_dir);
+  read_mill(top, scene);
   const bool level_max_given = read_integrator(top, scene);
   read_run_and_output(top, scene);
   read_accuracy(top, scene);
@@ -789,9 +845,6 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   physics.erase("run");
   physics.erase("output");
   physics.erase("accuracy");
-  // A mesh wall's triangles are physics too, whatever file they came from.
-  for (const WallConfig& w : scene.world.walls)
-    if (w.mesh) derived += "\nmesh " + w.name + " " + std::to_string(mesh_fingerprint(*w.mesh));
   std::ostringstream resolved;
   resolved << physics << derived;  // a level_max derived from the output interval is physics too
   scene.physics_hash = fnv1a(resolved.str());
@@ -844,9 +897,7 @@ void check_initial_state(const Scene& scene) {
       WallTouch touch;
       bool outside = false;
       Real overlap = 0;
-      std::vector<std::uint32_t> features(walls.touching_count(w, position[p], radius[p]));
-      walls.touching_features(w, position[p], radius[p], features.data());
-      for (const std::uint32_t f : features) {
+      for (std::uint32_t f = 0; f < walls.feature_count(w); ++f) {
         if (walls.touch(w, f, position[p], radius[p], touch)) overlap = std::max(overlap, touch.overlap);
       }
       if (c.kind == WallKind::plane) outside = (position[p] - walls.point(w)).dot(c.normal.normalized()) < 0;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include "engine/cli/commands.h"
 #include "engine/cli/energy_audit.h"
+#include "engine/cli/mill_outputs.h"
 #include "engine/cli/version.h"
 
 #include <unistd.h>
@@ -123,15 +124,6 @@ WallGeometry wall_geometry(const World& world) {
         for (const Vec3& corner : c.profile) corners.push_back(world.walls().point(w) + rotation * (corner - c.point));
         const Real length = std::isfinite(c.length) ? c.length : extent;
         append_wall_geometry(all, prism_geometry(corners, rotation * c.axis, length, wall));
-        break;
-      }
-      case WallKind::mesh: {  // the triangles themselves, moved to the wall's current pose
-        const TriangleMesh& mesh = *world.walls().mesh(w);
-        WallGeometry part;
-        for (const Vec3& v : mesh.vertices()) part.points.push_back(world.walls().point(w) + rotation * v);
-        part.triangles = mesh.triangles();
-        part.wall_index.assign(mesh.triangle_count(), wall);
-        append_wall_geometry(all, part);
         break;
       }
     }
@@ -275,12 +267,15 @@ int run_command(const RunOptions& options) {
     rows.done_at(world.time());
     if (snapshots.enabled()) snapshots.done_at(world.time());
   }
+  std::optional<MillOutputs> mill;
+  if (scene.mill) mill.emplace(*scene.mill, world, out, resuming, options.quiet);
   // Writes what is due at the current sync time (everything when `final_row`).
   auto write_outputs = [&](bool final_row) {
     const Real t = world.time();
     if (rows.due(t) || final_row) {
       series.append(series_row(world));
       walls.append(wall_row(world));
+      if (mill) mill->on_row(world);
       if (trajectories) append_trajectories(*trajectories, world);
       rows.done_at(t);
     }
@@ -322,6 +317,7 @@ int run_command(const RunOptions& options) {
       break;
     }
     const Real t = world.time();
+    if (mill) mill->on_sync(world);
     // Translational only: a particle spinning about its contact normal (nothing resists that spin)
     // does not move and must not keep a settled bed from being written.
     const bool settled = scene.run.stop_kinetic_energy > 0 && t >= scene.run.stop_check_after &&
@@ -420,6 +416,10 @@ int run_command(const RunOptions& options) {
       .add("end", energy_json(world))
       .add("state_hash", hex(world.state_hash()))
       .add("provenance", provenance);
+  if (mill) {
+    summary.add("mill", mill->summary());
+    if (const auto p = mill->mean_power_draw()) summary.add("mean_power_draw", *p);
+  }
   write_file_atomically(out / "summary.json", summary.dump(2) + "\n");
   if (divergence.empty()) {
     const std::filesystem::path path = checkpoint_name(world.time());

@@ -1,0 +1,59 @@
+#include "engine/cli/mill_outputs.h"
+
+#include <cstdio>
+
+namespace dem::cli {
+
+namespace {
+
+std::filesystem::path fresh(const std::filesystem::path& path, bool resuming) {
+  if (!resuming) std::filesystem::remove(path);
+  return path;
+}
+
+}  // namespace
+
+MillOutputs::MillOutputs(const MillConfig& config, const World& world, const std::filesystem::path& out, bool resuming,
+                         bool quiet)
+    : config_(config),
+      monitor_(config, world),
+      rows_(fresh(out / "mill.csv", resuming),
+            {"time", "revolution", "torque", "power_draw", "toe_angle", "shoulder_angle"}),
+      revolutions_(fresh(out / "mill_revolutions.csv", resuming),
+                   {"end_time", "revolution", "start_time", "torque", "power_draw", "steady"}),
+      quiet_(quiet) {
+  if (resuming) {
+    rows_.truncate_after(world.time());
+    revolutions_.truncate_after(world.time());
+  }
+}
+
+void MillOutputs::on_sync(const World& world) {
+  for (const MillRevolution& r : monitor_.observe(world)) {
+    revolutions_.append({r.end, static_cast<double>(r.index), r.start, r.torque, r.power_draw, r.steady ? 1.0 : 0.0});
+    if (!quiet_)
+      std::printf("revolution %d: t = %.4g to %.4g s, torque %.6g N m, power draw %.6g W%s\n", r.index, r.start, r.end,
+                  r.torque, r.power_draw, r.steady ? "" : " (start-up, not averaged)");
+  }
+}
+
+void MillOutputs::on_row(const World& world) {
+  const MillRow r = monitor_.row(world);
+  rows_.append({r.time, r.revolution, r.torque, r.power_draw, r.toe_angle, r.shoulder_angle});
+}
+
+JsonObject MillOutputs::summary() const {
+  JsonObject j;
+  const Real rpm = 60 / (2 * pi);
+  j.add("speed_rpm", config_.speed * rpm)
+      .add("critical_speed_rpm", config_.critical_speed * rpm)
+      .add("critical_fraction", config_.speed / config_.critical_speed)
+      .add("revolutions", static_cast<std::int64_t>(monitor_.revolutions().size()))
+      .add("steady_revolutions", static_cast<std::int64_t>(monitor_.steady_revolutions()));
+  // No steady revolution yet: the means are absent rather than made up.
+  if (const auto p = monitor_.mean_power_draw()) j.add("mean_power_draw", *p);
+  if (const auto t = monitor_.mean_torque()) j.add("mean_torque", *t);
+  return j;
+}
+
+}  // namespace dem::cli

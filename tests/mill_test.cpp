@@ -1,0 +1,144 @@
+// Mills (PHYSICS.md 7): a single ball's motion against the critical speed, power draw against speed,
+// and the energy balance of a running charge, on small 2D mills.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "engine/mill_monitor.h"
+#include "engine/scene_loader.h"
+#include "engine/world.h"
+
+namespace dem {
+namespace {
+
+constexpr Real mill_radius = 0.1;
+constexpr Real ball_radius = 0.004;
+
+/// A 2D mill of diameter 0.2 m; `charge` is the [mill] charge's count or filling entry.
+std::string mill_scene(int lifters, Real critical_fraction, const std::string& charge) {
+  return R"(
+[scene]
+dimension = 2
+thickness = 0.008
+gravity = [0, -9.81, 0]
+[[contacts]]
+normal_stiffness = 5e3
+normal_damping = { restitution = 0.5 }
+sliding_friction = 0.4
+rolling_friction = 0.02
+[mill]
+diameter = 0.2
+lifters = )" + std::to_string(lifters) + (lifters > 0 ? R"(
+lifter_height = 0.012
+lifter_width = 0.008
+lifter_face_angle = 10)" : "") + R"(
+critical_fraction = )" + std::to_string(critical_fraction) +
+         R"(
+ramp_time = 0.2
+discard_revolutions = 0
+charge = { )" + charge + R"(, size = { radius = 0.004 }, seed = 3 }
+[integrator]
+dt = 1e-4
+)";
+}
+
+struct MillRun {
+  Scene scene;
+  std::unique_ptr<World> world;
+  std::unique_ptr<MillMonitor> monitor;
+  explicit MillRun(const std::string& text) : scene(load_scene_text(text, "mill.toml", ".")) {
+    world = std::make_unique<World>(scene.world);
+    monitor = std::make_unique<MillMonitor>(*scene.mill, *world);
+  }
+  Real period() const { return 2 * pi / scene.mill->speed; }
+  /// Advances to time t, calling `each` at every sync time.
+  template <class F>
+  void run_until(Real t, F&& each) {
+    while (world->time() < t) {
+      ASSERT_EQ(world->advance_sync_interval(), StepStatus::ok);
+      monitor->observe(*world);
+      each();
+    }
+  }
+  void run_until(Real t) {
+    run_until(t, [] {});
+  }
+  const Vec3& ball() const { return world->state().position[0]; }
+};
+
+TEST(Mill, CriticalSpeedMatchesTheClassicFormula) {
+  // N_c = 42.3 / sqrt(D - d) rpm (PHYSICS.md 7): D = 5 m, d = 0.1 m gives 19.1 rpm.
+  EXPECT_NEAR(critical_speed(5, 0.1, 9.81) * 60 / (2 * pi), 42.3 / std::sqrt(4.9), 0.01);
+}
+
+TEST(Mill, SingleBallWithoutLiftersStaysNearTheBottom) {
+  MillRun run(mill_scene(0, 0.3, "count = 1"));
+  const Real settle = 0.6;
+  run.run_until(settle);
+  Real highest = -1;  // the ball's highest angle above the bottom, seen from the axis [rad]
+  run.run_until(settle + 2 * run.period(), [&] {
+    highest = std::max(highest, std::atan2(std::abs(run.ball().x()), -run.ball().y()));
+  });
+  EXPECT_LT(highest, 30 * pi / 180) << "a ball rolling in a smooth drum rocks about the bottom";
+  EXPECT_GE(highest, 0);
+}
+
+TEST(Mill, LiftersCarryABallUpAndReleaseIt) {
+  MillRun run(mill_scene(8, 0.75, "count = 1"));
+  run.run_until(0.6);
+  int lifts = 0;  // times the ball rose above the axis and came back down to the bottom
+  bool up = false;
+  run.run_until(0.6 + 3 * run.period(), [&] {
+    const Real y = run.ball().y();
+    if (!up && y > 0) up = true, ++lifts;
+    if (up && y < -0.8 * mill_radius) up = false;
+  });
+  EXPECT_GE(lifts, 2) << "carried above the axis and dropped, revolution after revolution";
+}
+
+TEST(Mill, AboveCriticalSpeedTheBallIsCarriedRound) {
+  MillRun run(mill_scene(8, 1.5, "count = 1"));
+  run.run_until(0.6);
+  Real nearest = 1, top = -1;  // closest approach to the axis, highest point
+  run.run_until(0.6 + 3 * run.period(), [&] {
+    nearest = std::min(nearest, run.ball().norm());
+    top = std::max(top, run.ball().y());
+  });
+  EXPECT_GT(nearest, mill_radius - 0.012 - 2 * ball_radius) << "it never leaves the shell";
+  EXPECT_GT(top, 0.8 * mill_radius) << "it passes the top";
+}
+
+Real steady_power(Real critical_fraction) {
+  MillRun run(mill_scene(8, critical_fraction, "count = 150"));
+  // The ramp's revolution (not steady) and two steady ones.
+  run.run_until(0.1 + 3.02 * run.period());
+  EXPECT_GE(run.monitor->steady_revolutions(), 2);
+  return run.monitor->mean_power_draw().value_or(-1);
+}
+
+TEST(Mill, PowerDrawRisesWithSpeedThenFallsAsTheChargeCentrifuges) {
+  const Real slow = steady_power(0.5), normal = steady_power(0.75), fast = steady_power(1.5);
+  EXPECT_GT(slow, 0);
+  EXPECT_LT(slow, normal);
+  EXPECT_GT(normal, fast) << "P(50%) = " << slow << " W, P(75%) = " << normal << " W, P(150%) = " << fast << " W";
+}
+
+TEST(Mill, DriveWorkBalancesDissipationAndEnergyChange) {
+  MillRun run(mill_scene(8, 0.75, "count = 150"));
+  const Real start = 0.2 + run.period();  // after the ramp and a revolution
+  run.run_until(start);
+  const Energies e0 = run.world->energies();
+  const Real work0 = run.world->wall_work(), lost0 = run.world->dissipated_energy();
+  run.run_until(start + 2 * run.period());
+  const Energies e1 = run.world->energies();
+  const Real work = run.world->wall_work() - work0;
+  const Real lost = run.world->dissipated_energy() - lost0;
+  const Real change = e1.total() - e0.total();
+  ASSERT_GT(work, 0);
+  EXPECT_LT(std::abs(work - (lost + change)), 0.02 * work)
+      << "drive work " << work << " J, dissipated " << lost << " J, energy change " << change << " J";
+}
+
+}  // namespace
+}  // namespace dem
