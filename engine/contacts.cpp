@@ -141,9 +141,8 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
   work.count.resize(n);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t c = 0;
-    std::uint32_t features[6];
     if (s.inv_mass[p] > 0)
-      for (std::size_t w = 0; w < walls.count(); ++w) c += walls.touching_features(w, s.position[p], s.radius[p], features);
+      for (std::size_t w = 0; w < walls.count(); ++w) c += walls.touching_count(w, s.position[p], s.radius[p]);
     work.count[p] = c;
   });
   exclusive_scan(work.count, wall_start);
@@ -151,15 +150,15 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
   fresh.resize(wall_start[n]);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t slot = wall_start[p];
-    std::uint32_t features[6];
     for (std::size_t w = 0; w < walls.count(); ++w) {
-      const std::uint32_t touched = s.inv_mass[p] > 0 ? walls.touching_features(w, s.position[p], s.radius[p], features) : 0;
+      // The features go straight into this particle's slots, whose number the count above fixed.
+      const std::uint32_t touched =
+          s.inv_mass[p] > 0 ? walls.touching_features(w, s.position[p], s.radius[p], fresh.feature.data() + slot) : 0;
       for (std::uint32_t q = 0; q < touched; ++q) {
-        const std::uint32_t f = features[q];
+        const std::uint32_t f = fresh.feature[slot];
         fresh.key[slot] = wall_key(s.id[p], static_cast<std::uint32_t>(w), f);
         fresh.particle[slot] = static_cast<ParticleIndex>(p);
         fresh.wall[slot] = static_cast<std::uint32_t>(w);
-        fresh.feature[slot] = f;
         const std::ptrdiff_t old = find_key(contacts.key, fresh.key[slot]);
         if (old >= 0) {
           fresh.constants[slot] = contacts.constants[old];

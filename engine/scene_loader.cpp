@@ -18,6 +18,7 @@
 #include "engine/particle_csv.h"
 #include "engine/particle_generator.h"
 #include "engine/mill.h"
+#include "engine/stl_reader.h"
 #include "engine/walls.h"
 
 namespace dem {
@@ -400,14 +401,16 @@ void read_contacts(TableReader& top, Scene& scene) {
   }
 }
 
-void read_walls(TableReader& top, Scene& scene) {
+void read_walls(TableReader& top, Scene& scene, const std::string& base_dir) {
   const auto tables = top.tables("walls");
+  if (tables.size() > max_walls)
+    top.fail("walls", "at most " + std::to_string(max_walls) + " walls, not " + std::to_string(tables.size()));
   for (std::size_t i = 0; i < tables.size(); ++i) {
     TableReader r(*tables[i], indexed("walls", i), top.file());
     WallConfig w;
     w.name = r.string("name", "wall" + std::to_string(i));
-    const std::size_t kind = r.choice("type", {"plane", "box", "cylinder", "prism"}, 99);
-    if (kind == 99) r.fail("type", "is required: one of plane, box, cylinder, prism");
+    const std::size_t kind = r.choice("type", {"plane", "box", "cylinder", "prism", "mesh"}, 99);
+    if (kind == 99) r.fail("type", "is required: one of plane, box, cylinder, prism, mesh");
     w.kind = static_cast<WallKind>(kind);
     w.material = read_material_name(r, scene, "material");
     w.point = r.vec3("point", Vec3::Zero());
@@ -423,6 +426,23 @@ void read_walls(TableReader& top, Scene& scene) {
       if (w.axis.norm() == 0) r.fail("axis", "must be a non-zero vector");
       w.radius = r.required_positive("radius");
       if (r.has("length")) w.length = r.positive("length", 1);
+    } else if (w.kind == WallKind::mesh) {
+      w.scale = r.positive("scale", 1);
+      const std::string name = r.string("file", "");
+      if (name.empty()) r.fail("file", "is required: an STL file (binary or ASCII), relative to the scene file");
+      const std::filesystem::path path = std::filesystem::path(base_dir) / name;
+      if (!std::filesystem::exists(path)) r.fail("file", "file not found: " + path.string());
+      w.file = path.string();
+      try {
+        w.mesh = std::make_shared<const TriangleMesh>(read_stl_mesh(w.file, w.scale));
+      } catch (const InputError& e) {
+        r.fail("file", std::string("not a valid STL file: ") + e.what());
+      } catch (const std::invalid_argument& e) {
+        r.fail("file", std::string("not a valid STL file: ") + w.file + ": " + e.what());
+      }
+      if (w.mesh->feature_count() >= max_wall_features)
+        r.fail("file", "the mesh has " + std::to_string(w.mesh->feature_count()) + " faces, edges and vertices; at most " +
+                           std::to_string(max_wall_features - 1) + " fit a contact key");
     } else {
       w.axis = r.vec3("axis", Vec3::UnitZ());
       if (w.axis.norm() == 0) r.fail("axis", "must be a non-zero vector");
@@ -796,6 +816,15 @@ std::uint64_t fnv1a(const std::string& text) {
   return h;
 }
 
+/// FNV-1a of a mesh's vertex coordinates and corner indices.
+std::uint64_t mesh_fingerprint(const TriangleMesh& mesh) {
+  std::string bytes;
+  bytes.append(reinterpret_cast<const char*>(mesh.vertices().data()), mesh.vertices().size() * sizeof(Vec3));
+  bytes.append(reinterpret_cast<const char*>(mesh.triangles().data()),
+               mesh.triangles().size() * sizeof(std::array<std::uint32_t, 3>));
+  return fnv1a(bytes);
+}
+
 }  // namespace
 
 Scene load_scene_text(const std::string& text, const std::string& file, const std::string& base_dir,
@@ -820,7 +849,7 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   }
   read_materials(top, scene);
   read_contacts(top, scene);
-  read_walls(top, scene);
+  read_walls(top, scene, base_dir);
   read_particles(top, scene, base_dir);
   read_mill(top, scene);
   const bool level_max_given = read_integrator(top, scene);
@@ -845,6 +874,9 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   physics.erase("run");
   physics.erase("output");
   physics.erase("accuracy");
+  // A mesh wall's triangles are physics too, whatever file they came from.
+  for (const WallConfig& w : scene.world.walls)
+    if (w.mesh) derived += "\nmesh " + w.name + " " + std::to_string(mesh_fingerprint(*w.mesh));
   std::ostringstream resolved;
   resolved << physics << derived;  // a level_max derived from the output interval is physics too
   scene.physics_hash = fnv1a(resolved.str());
@@ -897,7 +929,9 @@ void check_initial_state(const Scene& scene) {
       WallTouch touch;
       bool outside = false;
       Real overlap = 0;
-      for (std::uint32_t f = 0; f < walls.feature_count(w); ++f) {
+      std::vector<std::uint32_t> features(walls.touching_count(w, position[p], radius[p]));
+      walls.touching_features(w, position[p], radius[p], features.data());
+      for (const std::uint32_t f : features) {
         if (walls.touch(w, f, position[p], radius[p], touch)) overlap = std::max(overlap, touch.overlap);
       }
       if (c.kind == WallKind::plane) outside = (position[p] - walls.point(w)).dot(c.normal.normalized()) < 0;

@@ -126,6 +126,15 @@ WallGeometry wall_geometry(const World& world) {
         append_wall_geometry(all, prism_geometry(corners, rotation * c.axis, length, wall));
         break;
       }
+      case WallKind::mesh: {  // the triangles themselves, moved to the wall's current pose
+        const TriangleMesh& mesh = *world.walls().mesh(w);
+        WallGeometry part;
+        for (const Vec3& v : mesh.vertices()) part.points.push_back(world.walls().point(w) + rotation * v);
+        part.triangles = mesh.triangles();
+        part.wall_index.assign(mesh.triangle_count(), wall);
+        append_wall_geometry(all, part);
+        break;
+      }
     }
   }
   return all;
