@@ -67,7 +67,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 5;  // 5: wall contact keys hold 22-bit feature ids
+constexpr std::uint32_t checkpoint_version = 6;  // 6: contact histories hold their energy books (spectra)
 
 class ByteWriter {
  public:

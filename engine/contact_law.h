@@ -23,6 +23,10 @@ struct ContactHistory {
   Vec3 tangential_spring = Vec3::Zero();  // xi [m], in the tangent plane
   Vec3 rolling_spring = Vec3::Zero();     // theta [rad], perpendicular to the normal
   std::uint8_t mode = 0;                  // ContactMode bits
+  // Energy books of this contact, for collision energy spectra (PHYSICS.md 7):
+  Real normal_work = 0;      // work of the particles on the normal spring-dashpot since it formed [J]
+  Real normal_elastic = 0;   // energy in the normal spring at the last evaluation [J]
+  Real impact_energy = -1;   // m* v_n^2 / 2 at its first evaluation [J]; negative until then
 };
 
 /// Relative motion at one contact, i against j (j may be a wall).
@@ -42,6 +46,8 @@ struct ContactResponse {
   Real normal_force;    // F_n [N], the scalar the friction limits use
   Real power;           // rate of work done by the particles on the contact [W]
   Real elastic;         // energy stored in the contact's springs after the update [J]
+  Real normal_power;    // the normal spring-dashpot's part of `power` [W]
+  Real normal_elastic;  // the normal spring's part of `elastic` [J]
 };
 
 namespace law_detail {
@@ -189,10 +195,12 @@ struct LinearSpringDashpot {
     const Real previous_normal = k.previous_force.dot(k.normal);
     const Vec3 previous_tangential = k.previous_force - previous_normal * k.normal;
     const Vec3 tangential_force = out.force - fn * k.normal;
-    out.power = 0.5 * (previous_normal + fn) * k.overlap_rate -
+    out.normal_power = 0.5 * (previous_normal + fn) * k.overlap_rate;
+    out.power = out.normal_power -
                 0.5 * (previous_tangential + tangential_force).dot(k.tangential_velocity) -
                 out.rolling_torque.dot(k.rolling_velocity);
     out.elastic = fn > 0 || Sep == Separation::overlap ? 0.5 * c.k_n * k.overlap * k.overlap : 0.0;
+    out.normal_elastic = out.elastic;
     if constexpr (Friction) out.elastic += 0.5 * c.k_t * history.tangential_spring.squaredNorm();
     if constexpr (Rolling != RollingKind::none) out.elastic += 0.5 * c.k_r * history.rolling_spring.squaredNorm();
     return out;

@@ -32,7 +32,12 @@ void pair_forces(const State& s, PairContacts& c, Real h) {
     kin.overlap_rate = -u.dot(n);
     kin.tangential_velocity = u + kin.overlap_rate * n;
     kin.rolling_velocity = w_rel;
-    const ContactResponse r = Law::evaluate(c.constants[k], kin, c.history[k], h);
+    ContactHistory& history = c.history[k];
+    const Real inv_m = s.inv_mass[i] + s.inv_mass[j];  // two fixed particles: no impact energy
+    if (history.impact_energy < 0) history.impact_energy = inv_m > 0 ? 0.5 * kin.overlap_rate * kin.overlap_rate / inv_m : 0;
+    const ContactResponse r = Law::evaluate(c.constants[k], kin, history, h);
+    history.normal_work += h * r.normal_power;
+    history.normal_elastic = r.normal_elastic;
     c.overlap[k] = overlap;
     c.work[k] += h * r.power;
     c.elastic[k] = r.elastic;
@@ -78,7 +83,11 @@ void wall_forces(const State& s, const Walls& walls, WallContacts& c, Real h) {
     kin.overlap_rate = -u.dot(n);
     kin.tangential_velocity = u + kin.overlap_rate * n;
     kin.rolling_velocity = w_rel;
-    const ContactResponse r = Law::evaluate(c.constants[k], kin, c.history[k], h);
+    ContactHistory& history = c.history[k];
+    if (history.impact_energy < 0) history.impact_energy = 0.5 * kin.overlap_rate * kin.overlap_rate / s.inv_mass[p];
+    const ContactResponse r = Law::evaluate(c.constants[k], kin, history, h);
+    history.normal_work += h * r.normal_power;
+    history.normal_elastic = r.normal_elastic;
     c.overlap[k] = touch.overlap;
     c.work[k] += h * r.power;
     c.elastic[k] = r.elastic;

@@ -26,8 +26,8 @@ struct OutputSettings {
 };
 
 /// Metric names an `[accuracy]` section may list (scenes/README.md): `dem trade` measures these.
-inline constexpr std::array<const char*, 5> accuracy_metric_names = {"trajectory", "dissipated_energy", "bed_height",
-                                                                     "kinetic_energy", "wall_force"};
+inline constexpr std::array<const char*, 6> accuracy_metric_names = {"trajectory", "dissipated_energy", "bed_height",
+                                                                     "kinetic_energy", "wall_force", "power_draw"};
 
 /// What `dem trade` compares against its reference run; not physics (not in the physics hash).
 struct AccuracySettings {

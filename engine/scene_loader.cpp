@@ -648,6 +648,7 @@ void read_mill(TableReader& top, Scene& scene) {
   for (std::size_t k = before; k < scene.world.particles.size(); ++k) scene.sources.push_back(source_of(*charge_table, top.file(), c.path()));
   scene.seeds.push_back(charge.seed);
   m.first_wall = add_mill_walls(m, scene.world.walls);
+  scene.world.collision_spectra = true;
   scene.mill = m;
 }
 

@@ -63,6 +63,10 @@ World::World(const WorldConfig& config)
   // Energy already in the springs at the start was not dissipated: count it as work done on them.
   pairs_.work = pairs_.elastic;
   wall_contacts_.work = wall_contacts_.elastic;
+  for (ContactHistory& h : pairs_.history) h.normal_work = h.normal_elastic;
+  for (ContactHistory& h : wall_contacts_.history) h.normal_work = h.normal_elastic;
+  if (config_.collision_spectra && config_.integrator.control == Control::fixed && config_.integrator.method == Method::verlet)
+    spectra_ = std::make_unique<CollisionSpectra>();
   for (const WallConfig& w : config_.walls)
     walls_move_ = walls_move_ || w.velocity.norm() > 0 || w.angular_velocity.norm() > 0;
   start_energies_ = energies();
@@ -95,9 +99,11 @@ void World::evaluate_forces(Real h, bool force_rebuild) {
   const std::size_t n = state_.size();
   if (force_rebuild || skin_tracker_.needs_rebuild(state_.position, candidate_skin_)) rebuild_candidates();
   ended_dissipation_ += update_pair_contacts(state_, candidates_, materials_, pairs_, workspace_);
+  if (spectra_) spectra_->record_ended(workspace_.pairs, pairs_);  // the workspace holds the old list
   build_pair_adjacency(n, pairs_, adjacency_);
   ended_dissipation_ +=
       update_wall_contacts(state_, walls_, materials_, wall_contacts_, workspace_, adjacency_.wall_start);
+  if (spectra_) spectra_->record_ended(workspace_.walls, wall_contacts_);
   kernels_.pair_forces(state_, pairs_, h);
   kernels_.wall_forces(state_, walls_, wall_contacts_, h);
   gather_forces(state_, pairs_, wall_contacts_, adjacency_, kernels_.uses_rotation, config_.model.dimension);

@@ -20,6 +20,7 @@
 #include "broadphase/grid.h"
 #include "broadphase/kd_tree.h"
 #include "broadphase/skin.h"
+#include "engine/collision_spectra.h"
 #include "engine/config.h"
 #include "engine/contacts.h"
 #include "engine/exact_stepper.h"
@@ -104,6 +105,9 @@ class World {
   const PairContacts& pair_contacts() const { return pairs_; }
   const WallContacts& wall_contacts() const { return wall_contacts_; }
   const RunCounters& counters() const { return counters_; }
+  /// Collision energy spectra of the contacts ended so far; null unless config.collision_spectra and
+  /// the fixed control with velocity Verlet (the doubling and exact paths do not book contact events).
+  const CollisionSpectra* collision_spectra() const { return spectra_.get(); }
   Real skin() const { return skin_; }
   bool has_rotation() const { return kernels_.uses_rotation; }
 
@@ -249,6 +253,7 @@ class World {
   bool walls_move_ = false;     // any wall with prescribed velocity
   Energies start_energies_;     // at construction, for the energy balance
   Real exact_dissipated_ = 0;   // energy the exact stepper's contacts dissipated [J]
+  std::unique_ptr<CollisionSpectra> spectra_;  // when booking contact events
   std::unique_ptr<DoublingWork> doubling_;  // step doubling's islands and scratch
   // Embedding (world_embedding.cpp).
   void refresh_after_population_change();

@@ -331,3 +331,17 @@ TEST(CliTrade, CallsThePlotScriptWhenMatplotlibIsThere) {
 }
 
 }  // namespace
+
+TEST(CliTrade, AMillIsMeasuredByItsPowerDraw) {
+  TempDir dir;
+  // The small test mill over its start-up: moving walls make power_draw a default metric.
+  const Result r = trade("tests/scenes/mill_small.toml --fixed 2e-4 --until 0.15 --no-plot --out " + dir.path().string(), dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Csv csv = read_csv(dir.path() / "trade.csv");
+  ASSERT_EQ(csv.rows.size(), 1u);
+  ASSERT_TRUE(csv.rows[0].count("power_draw_error")) << "columns: " << read_text(dir.path() / "trade.csv");
+  const double error = csv.number(0, "power_draw_error");
+  EXPECT_TRUE(std::isfinite(error));
+  EXPECT_GE(error, 0);
+  EXPECT_NE(read_text(dir.path() / "trade_metrics.txt").find("power_draw"), std::string::npos);
+}

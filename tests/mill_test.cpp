@@ -124,20 +124,34 @@ TEST(Mill, PowerDrawRisesWithSpeedThenFallsAsTheChargeCentrifuges) {
   EXPECT_GT(normal, fast) << "P(50%) = " << slow << " W, P(75%) = " << normal << " W, P(150%) = " << fast << " W";
 }
 
+/// What the collision spectra hold: events ended so far plus what open contacts have dissipated.
+Real spectra_total(const World& world) {
+  return world.collision_spectra()->dissipated() +
+         live_dissipation(world.pair_contacts().work, world.pair_contacts().elastic) +
+         live_dissipation(world.wall_contacts().work, world.wall_contacts().elastic);
+}
+
 TEST(Mill, DriveWorkBalancesDissipationAndEnergyChange) {
   MillRun run(mill_scene(8, 0.75, "count = 150"));
   const Real start = 0.2 + run.period();  // after the ramp and a revolution
   run.run_until(start);
   const Energies e0 = run.world->energies();
   const Real work0 = run.world->wall_work(), lost0 = run.world->dissipated_energy();
+  const Real spectra0 = spectra_total(*run.world);
+  const std::uint64_t events0 = run.world->collision_spectra()->events(CollisionSpectra::ball_ball);
   run.run_until(start + 2 * run.period());
   const Energies e1 = run.world->energies();
+  // Drive work is integrated every step from the walls' power; the dissipation is each contact's own
+  // books; the spectra sum their events one by one.
   const Real work = run.world->wall_work() - work0;
   const Real lost = run.world->dissipated_energy() - lost0;
   const Real change = e1.total() - e0.total();
   ASSERT_GT(work, 0);
   EXPECT_LT(std::abs(work - (lost + change)), 0.02 * work)
       << "drive work " << work << " J, dissipated " << lost << " J, energy change " << change << " J";
+  const Real spectra = spectra_total(*run.world) - spectra0;
+  EXPECT_LT(std::abs(spectra - (work - change)), 0.02 * work) << "spectra total " << spectra << " J";
+  EXPECT_GT(run.world->collision_spectra()->events(CollisionSpectra::ball_ball), events0 + 100);
 }
 
 }  // namespace

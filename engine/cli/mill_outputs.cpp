@@ -2,6 +2,8 @@
 
 #include <cstdio>
 
+#include "engine/cli/plot_script.h"
+
 namespace dem::cli {
 
 namespace {
@@ -16,6 +18,8 @@ std::filesystem::path fresh(const std::filesystem::path& path, bool resuming) {
 MillOutputs::MillOutputs(const MillConfig& config, const World& world, const std::filesystem::path& out, bool resuming,
                          bool quiet)
     : config_(config),
+      out_(out),
+      start_time_(world.time()),
       monitor_(config, world),
       rows_(fresh(out / "mill.csv", resuming),
             {"time", "revolution", "torque", "power_draw", "toe_angle", "shoulder_angle"}),
@@ -54,6 +58,16 @@ JsonObject MillOutputs::summary() const {
   if (const auto p = monitor_.mean_power_draw()) j.add("mean_power_draw", *p);
   if (const auto t = monitor_.mean_torque()) j.add("mean_torque", *t);
   return j;
+}
+
+void MillOutputs::write_spectra(const World& world, const std::string& scene_file) const {
+  const CollisionSpectra* spectra = world.collision_spectra();
+  if (!spectra) {
+    if (!quiet_) std::printf("collision spectra: booked only under the fixed control with velocity Verlet\n");
+    return;
+  }
+  spectra->write_csv(out_ / "spectra.csv", world.time() - start_time_);
+  run_plot_script("dem run", "plot_spectra.py", scene_file, out_ / "spectra.csv", quiet_);
 }
 
 }  // namespace dem::cli

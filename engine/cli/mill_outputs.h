@@ -21,10 +21,14 @@ class MillOutputs {
   void on_row(const World& world);
   /// The summary's "mill" block.
   JsonObject summary() const;
+  /// At the end: spectra.csv of the collision energy spectra and, with Python's matplotlib, spectra.png.
+  void write_spectra(const World& world, const std::string& scene_file) const;
   std::optional<Real> mean_power_draw() const { return monitor_.mean_power_draw(); }
 
  private:
   MillConfig config_;
+  std::filesystem::path out_;
+  Real start_time_;
   MillMonitor monitor_;
   SeriesWriter rows_;
   SeriesWriter revolutions_;

@@ -41,9 +41,10 @@
 #include <string>
 #include <vector>
 
-#include <sys/wait.h>
+
 
 #include "engine/cli/commands.h"
+#include "engine/cli/plot_script.h"
 #include "engine/cli/energy_audit.h"
 #include "engine/input_error.h"
 #include "engine/output.h"
@@ -59,20 +60,21 @@ constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 // Metrics
 
 /// Observables of a many-body scene, measured at every sample time and compared at the end time.
-enum Observable { dissipated_energy, bed_height, kinetic_energy, wall_force, observable_count };
+enum Observable { dissipated_energy, bed_height, kinetic_energy, wall_force, power_draw, observable_count };
 const char* const observable_names[observable_count] = {"dissipated_energy", "bed_height", "kinetic_energy",
-                                                        "wall_force"};
-const char* const observable_units[observable_count] = {"J", "m", "J", "N"};
+                                                        "wall_force", "power_draw"};
+const char* const observable_units[observable_count] = {"J", "m", "J", "N", "W"};
 const char* const observable_meanings[observable_count] = {
     "energy dissipated by contacts since the start; at the end time",
     "mean height (along -gravity; z without gravity; y in 2D) of the highest 10% of particles; at the end time",
     "translational plus rotational kinetic energy; at the end time",
-    "sum over walls of the magnitude of the force of the particles on the wall; at the end time"};
+    "sum over walls of the magnitude of the force of the particles on the wall; at the end time",
+    "mean power of the moving walls on the particles since the start (a mill's drive power): wall work / time; at the end time"};
 
 /// The metric columns: the four trajectory columns and the observables, in this order when chosen.
 struct Metrics {
   bool trajectory = false;
-  bool observable[observable_count] = {false, false, false, false};
+  bool observable[observable_count] = {false, false, false, false, false};
 
   std::vector<std::string> columns() const {
     std::vector<std::string> c;
@@ -101,6 +103,10 @@ Metrics choose_metrics(const Scene& scene) {
     m.observable[dissipated_energy] = m.observable[bed_height] = m.observable[kinetic_energy] = true;
     m.observable[wall_force] = !scene.world.walls.empty();
   }
+  // Moving walls do work: for a mill, its power draw is the observable users ask for.
+  m.observable[power_draw] = std::any_of(scene.world.walls.begin(), scene.world.walls.end(), [](const WallConfig& w) {
+    return w.velocity.norm() > 0 || w.angular_velocity.norm() > 0;
+  });
   return m;
 }
 
@@ -111,7 +117,7 @@ Metrics choose_metrics(const Scene& scene) {
 struct Sample {
   double time = 0;
   std::vector<Vec3> position, velocity;
-  double observable[observable_count] = {nan, nan, nan, nan};
+  double observable[observable_count] = {nan, nan, nan, nan, nan};
 };
 
 struct RunResult {
@@ -155,6 +161,7 @@ Sample sample_of(const World& world, bool trajectory, const Vec3& up) {
   double force = 0;
   for (const WallLoad& load : world.wall_loads()) force += load.force.norm();
   s.observable[wall_force] = force;
+  s.observable[power_draw] = s.time > 0 ? world.wall_work() / s.time : 0;
   return s;
 }
 
@@ -417,46 +424,6 @@ std::string join(const std::vector<std::string>& items, const std::string& sep) 
   return s;
 }
 
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-std::filesystem::path find_plot_script(const std::string& scene_file) {
-  namespace fs = std::filesystem;
-  std::vector<fs::path> candidates{fs::path("bench") / "plot_trade.py",
-                                   fs::absolute(scene_file).parent_path().parent_path() / "bench" / "plot_trade.py"};
-#ifdef DEM_TRADE_PLOT_SCRIPT
-  candidates.emplace_back(DEM_TRADE_PLOT_SCRIPT);
-#endif
-  for (const fs::path& p : candidates)
-    if (fs::exists(p)) return p;
-  return {};
-}
-
-/// Calls bench/plot_trade.py for trade.png if Python with matplotlib is there, else says how.
-void plot(const std::string& scene_file, const std::filesystem::path& out, bool quiet) {
-  namespace fs = std::filesystem;
-  const fs::path script = find_plot_script(scene_file);
-  const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-  const std::string how = "apt-get install python3-matplotlib, then: python3 bench/plot_trade.py " + (out / "trade.csv").string();
-  if (script.empty()) {
-    std::fprintf(stderr, "dem trade: bench/plot_trade.py not found, no trade.png (from the source tree: %s)\n", how.c_str());
-    return;
-  }
-  const int has = std::system((python + " -c 'import matplotlib' >/dev/null 2>&1").c_str());
-  if (!WIFEXITED(has) || WEXITSTATUS(has) != 0) {
-    std::fprintf(stderr, "dem trade: Python 3 with matplotlib is missing, no trade.png; to plot: %s\n", how.c_str());
-    return;
-  }
-  const std::string command = python + " " + quote(script.string()) + " " + quote((out / "trade.csv").string()) +
-                              (quiet ? " >/dev/null" : "");
-  const int done = std::system(command.c_str());
-  if (!WIFEXITED(done) || WEXITSTATUS(done) != 0)
-    std::fprintf(stderr, "dem trade: %s failed; trade.csv is complete\n", script.string().c_str());
-}
-
 }  // namespace
 
 int trade_command(const TradeOptions& options) {
@@ -698,7 +665,7 @@ int trade_command(const TradeOptions& options) {
   std::fflush(stdout);
   for (const std::string& w : warnings) std::fprintf(stderr, "dem trade: warning: %s\n", w.c_str());
   std::fflush(stderr);
-  if (options.plot) plot(options.scene, out, options.quiet);
+  if (options.plot) run_plot_script("dem trade", "plot_trade.py", options.scene, out / "trade.csv", options.quiet);
   say("outputs in %s\n", out.string().c_str());
   return 0;
 }

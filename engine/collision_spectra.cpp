@@ -1,0 +1,76 @@
+#include "engine/collision_spectra.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "engine/output.h"
+
+namespace dem {
+
+namespace {
+
+/// Calls ended(k) for each slot k of `before` whose key `after` does not hold; both keys ascending.
+template <class F>
+void for_each_ended(const std::vector<std::uint64_t>& before, const std::vector<std::uint64_t>& after, F&& ended) {
+  std::size_t j = 0;
+  for (std::size_t k = 0; k < before.size(); ++k) {
+    while (j < after.size() && after[j] < before[k]) ++j;
+    if (j == after.size() || after[j] != before[k]) ended(k);
+  }
+}
+
+}  // namespace
+
+int CollisionSpectra::bin_of(double energy) {
+  if (!(energy > lowest_energy)) return 0;
+  const int b = static_cast<int>(std::floor(std::log10(energy / lowest_energy) * bins_per_decade));
+  return std::clamp(b, 0, bin_count - 1);
+}
+
+double CollisionSpectra::bin_low(int b) { return lowest_energy * std::pow(10.0, static_cast<double>(b) / bins_per_decade); }
+
+void CollisionSpectra::book(Kind kind, const ContactHistory& history, Real work, Real elastic) {
+  // Whatever the normal spring still held when the contact ended is lost with it, as in the
+  // World's books (dissipated = work - elastic); the rest of the loss is tangential and rolling.
+  const double normal = history.normal_work - history.normal_elastic;
+  const double tangential = (work - elastic) - normal;
+  const double values[quantity_count] = {std::max(history.impact_energy, Real(0)), normal, tangential};
+  for (int q = 0; q < quantity_count; ++q) {
+    Histogram& h = histogram_[kind][q];
+    const int b = bin_of(values[q]);
+    ++h.count[b];
+    h.energy[b] += values[q];
+  }
+  ++events_[kind];
+  dissipated_ += normal + tangential;
+}
+
+void CollisionSpectra::record_ended(const PairContacts& before, const PairContacts& after) {
+  for_each_ended(before.key, after.key, [&](std::size_t k) { book(ball_ball, before.history[k], before.work[k], before.elastic[k]); });
+}
+
+void CollisionSpectra::record_ended(const WallContacts& before, const WallContacts& after) {
+  for_each_ended(before.key, after.key, [&](std::size_t k) { book(ball_wall, before.history[k], before.work[k], before.elastic[k]); });
+}
+
+double CollisionSpectra::dissipated() const { return dissipated_; }
+
+void CollisionSpectra::write_csv(const std::filesystem::path& path, double duration) const {
+  std::string text = "kind,quantity,bin_low,bin_high,events,events_per_second,energy\n";
+  char line[256];
+  for (int kind = 0; kind < kind_count; ++kind)
+    for (int q = 0; q < quantity_count; ++q)
+      for (int b = 0; b < bin_count; ++b) {
+        const Histogram& h = histogram_[kind][q];
+        if (h.count[b] == 0) continue;
+        std::snprintf(line, sizeof line, "%s,%s,%.6g,%.6g,%llu,%.17g,%.17g\n", kind_names[kind], quantity_names[q],
+                      b == 0 ? 0.0 : bin_low(b), bin_low(b + 1), static_cast<unsigned long long>(h.count[b]),
+                      duration > 0 ? static_cast<double>(h.count[b]) / duration : 0.0, h.energy[b]);
+        text += line;
+      }
+  write_file_atomically(path, text);
+}
+
+}  // namespace dem

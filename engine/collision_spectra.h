@@ -1,0 +1,57 @@
+#pragma once
+// Collision energy spectra (PHYSICS.md 7): per contact event (a contact from its start to its end)
+// the impact energy m* v_n^2 / 2 at its start and the energy its normal spring-dashpot and its
+// tangential and rolling parts dissipated, binned logarithmically, particle-particle ("ball-ball")
+// and particle-wall ("ball-liner") apart. An event is booked when its contact ends; contacts still
+// open are not events yet (live_* below gives what they have dissipated so far).
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+#include "engine/contacts.h"
+
+namespace dem {
+
+class CollisionSpectra {
+ public:
+  enum Kind { ball_ball, ball_wall, kind_count };
+  enum Quantity { impact, normal_dissipated, tangential_dissipated, quantity_count };
+  static constexpr const char* kind_names[kind_count] = {"ball-ball", "ball-liner"};
+  static constexpr const char* quantity_names[quantity_count] = {"impact_energy", "normal_dissipated",
+                                                                 "tangential_dissipated"};
+  // Bins: bins_per_decade per decade from lowest_energy up; above goes to the last bin, below (zero
+  // and the odd slightly negative split included) to the first, written with a lower edge of 0.
+  static constexpr int bins_per_decade = 5;
+  static constexpr int bin_count = 5 * 18;
+  static constexpr double lowest_energy = 1e-15;  // [J]
+
+  /// Books the contacts of `before` that `after` no longer holds (both sorted by key).
+  void record_ended(const PairContacts& before, const PairContacts& after);
+  void record_ended(const WallContacts& before, const WallContacts& after);
+
+  /// Total energy the booked events dissipated (normal and tangential) [J].
+  double dissipated() const;
+  std::uint64_t events(Kind kind) const { return events_[kind]; }
+
+  /// Lower edge of bin b [J].
+  static double bin_low(int b);
+  /// CSV: kind (ball-ball, ball-liner), quantity (impact_energy, normal_dissipated,
+  /// tangential_dissipated: rolling included), bin_low, bin_high [J], events, events_per_second (over `duration` [s]),
+  /// energy [J] (the sum of the binned values). Written atomically.
+  void write_csv(const std::filesystem::path& path, double duration) const;
+
+ private:
+  void book(Kind kind, const ContactHistory& history, Real work, Real elastic);
+  static int bin_of(double energy);
+
+  struct Histogram {
+    std::array<std::uint64_t, bin_count> count{};
+    std::array<double, bin_count> energy{};
+  };
+  std::array<std::array<Histogram, quantity_count>, kind_count> histogram_{};
+  std::array<std::uint64_t, kind_count> events_{};
+  double dissipated_ = 0;
+};
+
+}  // namespace dem
