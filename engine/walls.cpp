@@ -68,6 +68,8 @@ Walls::PrismShape Walls::make_prism(const WallConfig& w) {
       fail("the profile must be strictly convex, its corners in order around it");
     shape.normal.emplace_back(Vec2(edge.y(), -edge.x()).normalized());
   }
+  for (const Vec2& c : shape.corner) shape.middle += c / static_cast<Real>(n);
+  for (const Vec2& c : shape.corner) shape.bound = std::max(shape.bound, (c - shape.middle).norm());
   return shape;
 }
 
@@ -172,6 +174,9 @@ bool Walls::touch_prism(std::size_t w, const Vec3& x, Real r, WallTouch& out) co
   const Vec3 rel = p.rotation.transpose() * (x - p.point);  // in the t = 0 frame
   const Vec2 q(rel.dot(shape.u), rel.dot(shape.v));
   const Real along = rel.dot(config_[w].axis);
+  // Most particles are nowhere near a lifter: one distance rules them out.
+  if ((q - shape.middle).squaredNorm() > (r + shape.bound) * (r + shape.bound) || std::abs(along) > shape.half_length + r)
+    return false;
   const std::size_t n = shape.corner.size();
   // Signed distance to each edge line: all <= 0 means q lies inside the cross-section.
   Real outmost = -std::numeric_limits<Real>::infinity();

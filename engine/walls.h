@@ -87,6 +87,8 @@ class Walls {
     std::vector<Eigen::Vector2d> corner;  // counter-clockwise about the axis
     std::vector<Eigen::Vector2d> normal;  // outward unit normal of edge corner[i] -> corner[i + 1]
     Real half_length = 0;
+    Eigen::Vector2d middle = Eigen::Vector2d::Zero();  // mean of the corners
+    Real bound = 0;  // largest distance of a corner from `middle`: beyond it plus r, no contact [m]
   };
   static PrismShape make_prism(const WallConfig& w);
   bool touch_prism(std::size_t w, const Vec3& x, Real r, WallTouch& out) const;

@@ -46,7 +46,7 @@ void MillOutputs::on_row(const World& world) {
   rows_.append({r.time, r.revolution, r.torque, r.power_draw, r.toe_angle, r.shoulder_angle});
 }
 
-JsonObject MillOutputs::summary() const {
+JsonObject MillOutputs::summary(const World& world) const {
   JsonObject j;
   const Real rpm = 60 / (2 * pi);
   j.add("speed_rpm", config_.speed * rpm)
@@ -54,6 +54,9 @@ JsonObject MillOutputs::summary() const {
       .add("critical_fraction", config_.speed / config_.critical_speed)
       .add("revolutions", static_cast<std::int64_t>(monitor_.revolutions().size()))
       .add("steady_revolutions", static_cast<std::int64_t>(monitor_.steady_revolutions()));
+  // The whole run's energy audit against the drive work: (E - E0) + dissipated - drive work.
+  const Real drive = world.wall_work();
+  j.add("drive_work", drive).add("energy_balance_error", drive > 0 ? world.energy_balance().error / drive : 0.0);
   // No steady revolution yet: the means are absent rather than made up.
   if (const auto p = monitor_.mean_power_draw()) j.add("mean_power_draw", *p);
   if (const auto t = monitor_.mean_torque()) j.add("mean_torque", *t);

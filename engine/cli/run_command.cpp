@@ -149,6 +149,7 @@ JsonObject energy_json(const World& world) {
       .add("potential_energy", e.potential)
       .add("elastic_energy", e.elastic)
       .add("dissipated_energy", world.dissipated_energy())
+      .add("wall_work", world.wall_work())
       .add("momentum", std::vector<double>{p.x(), p.y(), p.z()});
   return j;
 }
@@ -427,7 +428,7 @@ int run_command(const RunOptions& options) {
       .add("provenance", provenance);
   if (mill) {
     mill->write_spectra(world, scene.file);
-    summary.add("mill", mill->summary());
+    summary.add("mill", mill->summary(world));
     if (const auto p = mill->mean_power_draw()) summary.add("mean_power_draw", *p);
   }
   write_file_atomically(out / "summary.json", summary.dump(2) + "\n");
