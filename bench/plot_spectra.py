@@ -21,8 +21,8 @@ def main(path):
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.2), sharey=True)
     for ax, q in zip(axes, quantities):
         for kind, style in (("ball-ball", "-"), ("ball-liner", "--")):
-            # The first bin (lower edge 0) gathers everything below the range: not drawn on a log axis.
-            data = sorted((r for r in rows.get((q, kind), []) if float(r["bin_low"]) > 0), key=lambda r: float(r["bin_low"]))
+            # The end bins (edges 0 and inf) gather everything outside the range: not drawn on log axes.
+            data = sorted((r for r in rows.get((q, kind), []) if 0 < float(r["bin_low"]) and float(r["bin_high"]) < float("inf")), key=lambda r: float(r["bin_low"]))
             if not data:
                 continue
             centres = [(float(r["bin_low"]) * float(r["bin_high"])) ** 0.5 for r in data]

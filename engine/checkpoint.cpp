@@ -184,6 +184,9 @@ std::string World::checkpoint_bytes(std::uint64_t scene_hash) const {
   const auto reference = skin_tracker_.reference();
   w.put(std::vector<Vec3>(reference.begin(), reference.end()));
   w.put(exact_work_.history);  // the exact stepper's wall-contact springs and modes
+  std::vector<CollisionSpectra> spectra;  // empty, or the one being booked
+  if (spectra_) spectra.push_back(*spectra_);
+  w.put(spectra);
   return w.finish();
 }
 
@@ -230,6 +233,9 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   r.get(reference);
   std::vector<ExactHistoryRecord> exact_history;
   r.get(exact_history);
+  std::vector<CollisionSpectra> spectra;
+  r.get(spectra);
+  if (spectra.size() != (spectra_ ? 1u : 0u)) r.fail("collision spectra do not match the scene's");
   if (!r.done()) r.fail("unexpected bytes after the last field");
   if (state.size() != state_.size()) r.fail("particle count differs from the scene's");
   if (!broadphase::is_valid(candidates, state.size())) r.fail("damaged neighbour list");
@@ -247,6 +253,7 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   candidates_ = std::move(candidates);
   skin_tracker_.reset(reference);
   exact_work_.history = std::move(exact_history);
+  if (spectra_) *spectra_ = spectra[0];
   walls_.set_time(time());
   pairs_.index_rows(state_.size());
   build_pair_adjacency(state_.size(), pairs_, adjacency_);

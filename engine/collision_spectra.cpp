@@ -31,7 +31,7 @@ int CollisionSpectra::bin_of(double energy) {
 
 double CollisionSpectra::bin_low(int b) { return lowest_energy * std::pow(10.0, static_cast<double>(b) / bins_per_decade); }
 
-void CollisionSpectra::book(Kind kind, const ContactHistory& history, Real work, Real elastic) {
+void CollisionSpectra::record(Kind kind, const ContactHistory& history, Real work, Real elastic) {
   // Whatever the normal spring still held when the contact ended is lost with it, as in the
   // World's books (dissipated = work - elastic); the rest of the loss is tangential and rolling.
   const double normal = history.normal_work - history.normal_elastic;
@@ -48,14 +48,20 @@ void CollisionSpectra::book(Kind kind, const ContactHistory& history, Real work,
 }
 
 void CollisionSpectra::record_ended(const PairContacts& before, const PairContacts& after) {
-  for_each_ended(before.key, after.key, [&](std::size_t k) { book(ball_ball, before.history[k], before.work[k], before.elastic[k]); });
+  for_each_ended(before.key, after.key, [&](std::size_t k) { record(ball_ball, before.history[k], before.work[k], before.elastic[k]); });
 }
 
 void CollisionSpectra::record_ended(const WallContacts& before, const WallContacts& after) {
-  for_each_ended(before.key, after.key, [&](std::size_t k) { book(ball_wall, before.history[k], before.work[k], before.elastic[k]); });
+  for_each_ended(before.key, after.key, [&](std::size_t k) { record(ball_wall, before.history[k], before.work[k], before.elastic[k]); });
 }
 
 double CollisionSpectra::dissipated() const { return dissipated_; }
+
+double CollisionSpectra::total(Kind kind, Quantity quantity) const {
+  double sum = 0;
+  for (double e : histogram_[kind][quantity].energy) sum += e;
+  return sum;
+}
 
 void CollisionSpectra::write_csv(const std::filesystem::path& path, double duration) const {
   std::string text = "kind,quantity,bin_low,bin_high,events,events_per_second,energy\n";
@@ -66,7 +72,7 @@ void CollisionSpectra::write_csv(const std::filesystem::path& path, double durat
         const Histogram& h = histogram_[kind][q];
         if (h.count[b] == 0) continue;
         std::snprintf(line, sizeof line, "%s,%s,%.6g,%.6g,%llu,%.17g,%.17g\n", kind_names[kind], quantity_names[q],
-                      b == 0 ? 0.0 : bin_low(b), bin_low(b + 1), static_cast<unsigned long long>(h.count[b]),
+                      b == 0 ? 0.0 : bin_low(b), b == bin_count - 1 ? INFINITY : bin_low(b + 1), static_cast<unsigned long long>(h.count[b]),
                       duration > 0 ? static_cast<double>(h.count[b]) / duration : 0.0, h.energy[b]);
         text += line;
       }

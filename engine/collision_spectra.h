@@ -20,8 +20,9 @@ class CollisionSpectra {
   static constexpr const char* kind_names[kind_count] = {"ball-ball", "ball-liner"};
   static constexpr const char* quantity_names[quantity_count] = {"impact_energy", "normal_dissipated",
                                                                  "tangential_dissipated"};
-  // Bins: bins_per_decade per decade from lowest_energy up; above goes to the last bin, below (zero
-  // and the odd slightly negative split included) to the first, written with a lower edge of 0.
+  // Bins: bins_per_decade per decade from lowest_energy up; above goes to the last bin (written with
+  // an upper edge of inf), below (zero and the odd slightly negative split included) to the first
+  // (written with a lower edge of 0).
   static constexpr int bins_per_decade = 5;
   static constexpr int bin_count = 5 * 18;
   static constexpr double lowest_energy = 1e-15;  // [J]
@@ -30,9 +31,14 @@ class CollisionSpectra {
   void record_ended(const PairContacts& before, const PairContacts& after);
   void record_ended(const WallContacts& before, const WallContacts& after);
 
+  /// Books one ended contact (its history, work and elastic energy at its last evaluation).
+  void record(Kind kind, const ContactHistory& history, Real work, Real elastic);
+
   /// Total energy the booked events dissipated (normal and tangential) [J].
   double dissipated() const;
   std::uint64_t events(Kind kind) const { return events_[kind]; }
+  /// Sum of one quantity over the booked events of one kind [J].
+  double total(Kind kind, Quantity quantity) const;
 
   /// Lower edge of bin b [J].
   static double bin_low(int b);
@@ -42,7 +48,6 @@ class CollisionSpectra {
   void write_csv(const std::filesystem::path& path, double duration) const;
 
  private:
-  void book(Kind kind, const ContactHistory& history, Real work, Real elastic);
   static int bin_of(double energy);
 
   struct Histogram {

@@ -191,7 +191,10 @@ struct LinearSpringDashpot {
     // change of k delta^2 / 2), an elastic stick likewise, and a dashpot whose force jumps from 0 at
     // onset books half its end force over that step, not all of it (the end force alone over-booked
     // c h (d delta / dt)^2 / 2 per impact: 3% of a mill ball's impact energy at t_c / 20).
-    // The rolling torque's previous value is not kept: its work uses the end torque.
+    // The rolling torque's previous value is not kept: its work uses the end torque. Not closed: the
+    // half kick a contact's last force still gives after the contact has left the list (under
+    // force_zero with damping that force is already ~0; under `overlap` separation it is about
+    // c h v_out^2 / 2 per impact, unbooked).
     const Real previous_normal = k.previous_force.dot(k.normal);
     const Vec3 previous_tangential = k.previous_force - previous_normal * k.normal;
     const Vec3 tangential_force = out.force - fn * k.normal;

@@ -12,10 +12,7 @@ MillMonitor::MillMonitor(const MillConfig& config, const World& world) : config_
   completed_ = static_cast<int>(std::floor(angle(world.time()) / (2 * pi) + 1e-12));
 }
 
-Real MillMonitor::angle(Real t) const {
-  const Real T = config_.ramp_time;
-  return config_.speed * (T > 0 && t < T ? t * t / (2 * T) : t - 0.5 * T);
-}
+Real MillMonitor::angle(Real t) const { return config_.speed * ramp_distance(t, config_.ramp_time); }
 
 std::vector<MillRevolution> MillMonitor::observe(const World& world) {
   std::vector<MillRevolution> closed;
@@ -33,6 +30,7 @@ std::vector<MillRevolution> MillMonitor::observe(const World& world) {
   r.torque = turned_angle > 0 ? (work - rev_start_work_) / turned_angle : 0;
   const int ramp_revolutions = static_cast<int>(std::ceil(angle(config_.ramp_time) / (2 * pi) - 1e-12));
   r.steady = r.start >= config_.ramp_time && turned > ramp_revolutions + config_.discard_revolutions;
+  r.drive_work = work;
   revolutions_.push_back(r);
   closed.push_back(r);
   completed_ = turned;
@@ -45,16 +43,27 @@ MillRow MillMonitor::row(const World& world) {
   MillRow row;
   row.time = world.time();
   row.revolution = angle(row.time) / (2 * pi);
+  row.drive_work = world.wall_work();
   const Real work = world.wall_work() - row_work_;
   const Real turned = angle(row.time) - angle(row_time_);
   row.power_draw = row.time > row_time_ ? work / (row.time - row_time_) : 0;
   row.torque = turned > 0 ? work / turned : 0;
-  const auto [toe, shoulder] = toe_and_shoulder(world, config_.first_wall, mill_wall_count(config_), config_.direction);
+  // The shell and the lifters (the first 1 + lifters mill walls), not the end walls.
+  const auto [toe, shoulder] = toe_and_shoulder(world, config_.first_wall, 1 + config_.lifters, config_.direction);
   row.toe_angle = toe;
   row.shoulder_angle = shoulder;
   row_time_ = row.time;
   row_work_ = world.wall_work();
   return row;
+}
+
+void MillMonitor::resume(const std::vector<MillRevolution>& done, const std::optional<MillRow>& last_row) {
+  revolutions_ = done;
+  completed_ = done.empty() ? 0 : done.back().index;
+  rev_start_time_ = done.empty() ? 0 : done.back().end;
+  rev_start_work_ = done.empty() ? 0 : done.back().drive_work;
+  row_time_ = last_row ? last_row->time : 0;
+  row_work_ = last_row ? last_row->drive_work : 0;
 }
 
 std::optional<Real> MillMonitor::mean_power_draw() const {

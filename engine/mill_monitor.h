@@ -20,6 +20,7 @@ namespace dem {
 /// One output row of mill.csv; torque and power are means over the interval since the last row.
 struct MillRow {
   Real time = 0;            // [s]
+  Real drive_work = 0;      // since t = 0 [J]
   Real revolution = 0;      // revolutions turned so far (fractional) [-]
   Real torque = 0;          // drive torque, mean over the interval [N m]
   Real power_draw = 0;      // drive power, mean over the interval [W]
@@ -34,12 +35,17 @@ struct MillRevolution {
   Real torque = 0;        // mean drive torque [N m]
   Real power_draw = 0;    // mean drive power [W]
   bool steady = false;    // after the ramp and the discarded revolutions: counts in mean_power_draw
+  Real drive_work = 0;    // drive work done by its end since t = 0 [J]
 };
 
 class MillMonitor {
  public:
   /// `config` as the loader resolved it (speed, ramp, first_wall); starts counting at the world's time.
   MillMonitor(const MillConfig& config, const World& world);
+
+  /// A resumed run: the revolutions and the last row written before the checkpoint (none: the
+  /// run's start, where the drive work was 0), so the means continue as in an unbroken run.
+  void resume(const std::vector<MillRevolution>& done, const std::optional<MillRow>& last_row);
 
   /// Call at every sync time: closes the revolutions completed since the last call; returns them.
   std::vector<MillRevolution> observe(const World& world);

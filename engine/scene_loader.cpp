@@ -592,7 +592,17 @@ void read_mill(TableReader& top, Scene& scene) {
     if (m.lifter_face_angle > 60) r.fail("lifter_face_angle", "must be from 0 to 60 degrees");
     const Real base = m.lifter_width + 2 * 1.25 * m.lifter_height * std::tan(m.lifter_face_angle * pi / 180);
     if (m.lifters * base >= pi * m.diameter) r.fail("lifters", "the lifters' bases overlap: fewer, narrower or steeper lifters");
+    const Real top_radius = 0.5 * m.diameter - m.lifter_height;
+    if (std::atan2(0.5 * m.lifter_width, top_radius) * m.lifters >= pi)
+      r.fail("lifter_width", "the lifters' top faces overlap: fewer or narrower lifters");
+    if (top_radius * top_radius + 0.25 * m.lifter_width * m.lifter_width >= 0.25 * m.diameter * m.diameter)
+      r.fail("lifter_width", "the lifter's top face reaches beyond the shell: narrower or taller lifters");
+  } else {
+    for (const char* key : {"lifter_height", "lifter_width", "lifter_face_angle"})
+      if (r.has(key)) r.fail(key, "has no effect without lifters: set lifters = N or remove it");
   }
+  if (scene.world.walls.size() + mill_wall_count(m) > max_walls)
+    r.fail("lifters", "the mill's walls and the [[walls]] exceed " + std::to_string(max_walls) + " walls");
   m.direction = r.choice("direction", {"counterclockwise", "clockwise"}, 0) == 0 ? 1 : -1;
   m.ramp_time = r.non_negative("ramp_time", 0);
   m.discard_revolutions = r.integer("discard_revolutions", 2);
@@ -600,7 +610,7 @@ void read_mill(TableReader& top, Scene& scene) {
   m.material = read_material_name(r, scene, "material");
   const Vec3 g = scene.world.model.gravity;
   if (!(g.norm() > 0) || std::abs(g.z()) > 1e-9 * g.norm())
-    r.fail("diameter", "a mill turns about the z axis: scene.gravity must be non-zero and in the xy plane");
+    top.fail("scene", "a mill turns about the z axis: scene.gravity must be non-zero and in the xy plane");
 
   // The charge: a generator filling the space inside the lifter tips; it falls into place at the start.
   const toml::table* charge_table = r.table("charge");

@@ -16,11 +16,10 @@ using Vec2 = Eigen::Vector2d;
 
 Real cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 
-/// Distance factor s(t) of a start-up ramp (config.h) and its rate s'(t).
+}  // namespace
+
 Real ramp_distance(Real t, Real ramp) { return ramp > 0 && t < ramp ? t * t / (2 * ramp) : t - 0.5 * std::max(ramp, Real(0)); }
 Real ramp_rate(Real t, Real ramp) { return ramp > 0 && t < ramp ? t / ramp : 1; }
-
-}  // namespace
 
 Walls::Walls(const std::vector<WallConfig>& walls, const MaterialTable& materials) : config_(walls) {
   for (auto& w : config_) {
@@ -68,6 +67,12 @@ Walls::PrismShape Walls::make_prism(const WallConfig& w) {
       fail("the profile must be strictly convex, its corners in order around it");
     shape.normal.emplace_back(Vec2(edge.y(), -edge.x()).normalized());
   }
+  // Left turns at every corner also pass a star (a pentagram): a convex polygon also has every
+  // corner on the inner side of every edge.
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t k = 0; k < n; ++k)
+      if (shape.normal[i].dot(shape.corner[k] - shape.corner[i]) > 1e-12 * std::sqrt(std::abs(area)))
+        fail("the profile must be a convex polygon, its corners in order around it (it crosses itself)");
   for (const Vec2& c : shape.corner) shape.middle += c / static_cast<Real>(n);
   for (const Vec2& c : shape.corner) shape.bound = std::max(shape.bound, (c - shape.middle).norm());
   return shape;
@@ -92,7 +97,7 @@ void Walls::set_time(Real t) {
     Pose& p = pose_[w];
     const Real s = ramp_distance(t, c.ramp_time);
     const Real angle = c.angular_velocity.norm() * s;
-    p.rotation = angle > 0 ? Eigen::AngleAxisd(angle, c.angular_velocity.normalized()).toRotationMatrix()
+    p.rotation = angle != 0 ? Eigen::AngleAxisd(angle, c.angular_velocity.normalized()).toRotationMatrix()
                            : Eigen::Matrix3d::Identity();
     p.center = c.rotation_center + c.velocity * s;
     p.point = p.center + p.rotation * (c.point - c.rotation_center);
@@ -216,8 +221,11 @@ bool Walls::touch_prism(std::size_t w, const Vec3& x, Real r, WallTouch& out) co
   const Vec3 gap = (q - nearest).x() * shape.u + (q - nearest).y() * shape.v + (along - nearest_along) * config_[w].axis;
   const Real d = gap.norm();
   out.overlap = r - d;
-  if (out.overlap <= 0 || d == 0) return false;
-  out.normal = p.rotation * (gap / d);
+  if (out.overlap <= 0) return false;
+  // A centre exactly on the surface has no gap direction: the outmost side's normal.
+  const Vec3 normal0 = d > 0 ? Vec3(gap / d)
+                             : Vec3(shape.normal[outmost_edge].x() * shape.u + shape.normal[outmost_edge].y() * shape.v);
+  out.normal = p.rotation * normal0;
   return true;
 }
 

@@ -22,6 +22,10 @@ struct WallTouch {
   Real overlap;  // delta > 0 in contact [m]
 };
 
+/// Start-up ramp (config.h): the distance factor s(t) (t^2 / 2T, then t - T/2) and its rate s'(t).
+Real ramp_distance(Real t, Real ramp_time);
+Real ramp_rate(Real t, Real ramp_time);
+
 /// Resultant load of the particles on one wall.
 struct WallLoad {
   Vec3 force = Vec3::Zero();   // [N]

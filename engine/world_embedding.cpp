@@ -209,6 +209,7 @@ bool World::remove_particle(ParticleId id) {
     if (pairs_.i[k] == slot || pairs_.j[k] == slot) {
       carried += pairs_.elastic[k];
       if (contact_books) ended_dissipation_ += pairs_.work[k] - pairs_.elastic[k];
+      if (spectra_) spectra_->record(CollisionSpectra::ball_ball, pairs_.history[k], pairs_.work[k], pairs_.elastic[k]);
       continue;
     }
     move_pair(pairs_, k, kept);
@@ -222,6 +223,8 @@ bool World::remove_particle(ParticleId id) {
     if (wall_contacts_.particle[k] == slot) {
       carried += wall_contacts_.elastic[k];
       if (contact_books) ended_dissipation_ += wall_contacts_.work[k] - wall_contacts_.elastic[k];
+      if (spectra_)
+        spectra_->record(CollisionSpectra::ball_wall, wall_contacts_.history[k], wall_contacts_.work[k], wall_contacts_.elastic[k]);
       continue;
     }
     move_wall(wall_contacts_, k, kept);

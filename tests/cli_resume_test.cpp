@@ -29,9 +29,9 @@ std::string hash_of(const fs::path& summary) {
   return at == std::string::npos ? "" : text.substr(at + 15, 16);
 }
 
-int run(const std::string& args) {
-  const std::string command = std::string(DEM_PROGRAM) + " run " + DEM_SOURCE_DIR +
-                              "/tests/scenes/settle_small.toml --quiet " + args + " 2>/dev/null";
+int run(const std::string& args, const std::string& scene = "tests/scenes/settle_small.toml") {
+  const std::string command = std::string(DEM_PROGRAM) + " run " + DEM_SOURCE_DIR + "/" + scene + " --quiet " + args +
+                              " 2>/dev/null";
   const int status = std::system(command.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
@@ -58,6 +58,28 @@ TEST(CliResume, ResumedRunEqualsStraightRunBitForBit) {
                 " --set contacts[0].normal_stiffness=2e5"),
             2);
   EXPECT_EQ(read(base / "split" / "series.csv"), series_before);
+  fs::remove_all(base);
+}
+
+TEST(CliResume, AResumedMillContinuesItsRevolutionsAndSpectra) {
+  // Split mid-revolution: the power per revolution, the steady mean and the spectra carry over.
+  const std::string mill = "tests/scenes/mill_small.toml";
+  const fs::path base = fs::temp_directory_path() / ("dem_resume_mill_" + std::to_string(::getpid()));
+  fs::remove_all(base);
+  const std::string whole = "--until 1.8 --set mill.discard_revolutions=0 --out ";
+  ASSERT_EQ(run(whole + (base / "straight").string(), mill), 0);
+  ASSERT_EQ(run("--until 1.3 --set mill.discard_revolutions=0 --out " + (base / "split").string(), mill), 0);
+  fs::path checkpoint;
+  for (const auto& e : fs::directory_iterator(base / "split"))
+    if (e.path().filename().string().rfind("checkpoint_", 0) == 0) checkpoint = e.path();
+  ASSERT_FALSE(checkpoint.empty());
+  ASSERT_EQ(run(whole + (base / "split").string() + " --resume " + checkpoint.string(), mill), 0);
+  for (const char* file : {"mill.csv", "mill_revolutions.csv", "spectra.csv", "series.csv"})
+    EXPECT_TRUE(read(base / "split" / file) == read(base / "straight" / file)) << file << " differs";
+  const std::string summary = read(base / "split" / "summary.json");
+  const auto mean = [](const std::string& text) { return text.substr(text.find("\"mean_power_draw\"")); };
+  ASSERT_NE(summary.find("\"mean_power_draw\""), std::string::npos);
+  EXPECT_EQ(mean(summary).substr(0, 40), mean(read(base / "straight" / "summary.json")).substr(0, 40));
   fs::remove_all(base);
 }
 

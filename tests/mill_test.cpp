@@ -155,6 +155,35 @@ TEST(Mill, DriveWorkBalancesDissipationAndEnergyChange) {
   EXPECT_GT(run.world->collision_spectra()->events(CollisionSpectra::ball_ball), events0 + 100);
 }
 
+TEST(CollisionSpectra, ASingleImpactBooksItsEnergies) {
+  // A 1 kg ball hits a plane head-on at 1 m/s without gravity: one ball-liner event whose impact
+  // energy is m v^2 / 2 = 0.5 J, whose normal loss is (1 - e^2) of it, and no tangential loss.
+  WorldConfig config;
+  config.contacts[0].normal_stiffness = 1e5;
+  config.contacts[0].normal_damping = {DampingKind::restitution, 0.6};
+  config.contacts[0].sliding_friction = 0.3;
+  WallConfig floor;
+  floor.kind = WallKind::plane;
+  config.walls.push_back(floor);
+  ParticleConfig ball;
+  ball.position = Vec3(0, 0, 0.101);
+  ball.velocity = Vec3(0, 0, -1);
+  ball.radius = 0.1;
+  ball.mass = 1;
+  config.particles.push_back(ball);
+  config.integrator.dt = 1e-6;
+  config.collision_spectra = true;
+  World world(config);
+  ASSERT_EQ(world.run_until(0.02), StepStatus::ok);
+  const CollisionSpectra& spectra = *world.collision_spectra();
+  ASSERT_EQ(spectra.events(CollisionSpectra::ball_wall), 1u);
+  EXPECT_EQ(spectra.events(CollisionSpectra::ball_ball), 0u);
+  EXPECT_NEAR(spectra.total(CollisionSpectra::ball_wall, CollisionSpectra::impact), 0.5, 1e-3);
+  EXPECT_NEAR(spectra.total(CollisionSpectra::ball_wall, CollisionSpectra::normal_dissipated), 0.5 * (1 - 0.36), 2e-3);
+  EXPECT_NEAR(spectra.total(CollisionSpectra::ball_wall, CollisionSpectra::tangential_dissipated), 0, 1e-12);
+  EXPECT_NEAR(spectra.dissipated(), world.dissipated_energy(), 1e-12);
+}
+
 TEST(Mill, RunsUnderEveryControlAndStepper) {
   // The exact stepper handles friction for one particle only so far: its mill is frictionless.
   struct Case {

@@ -86,6 +86,10 @@ TEST(PrismWall, RejectsProfilesThatAreNotConvexPolygons) {
   EXPECT_THROW(Walls::check_prism(w), std::invalid_argument);
   w.profile = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(2, 0, 0)};  // no area
   EXPECT_THROW(Walls::check_prism(w), std::invalid_argument);
+  // A pentagram turns left at every corner and encloses area, but crosses itself.
+  w.profile.clear();
+  for (int k : {0, 2, 4, 1, 3}) w.profile.push_back(Vec3(std::cos(2 * pi * k / 5), std::sin(2 * pi * k / 5), 0));
+  EXPECT_THROW(Walls::check_prism(w), std::invalid_argument);
 }
 
 TEST(WallRamp, AngleAndSpeedFollowTheLinearStartUp) {

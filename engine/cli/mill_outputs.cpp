@@ -1,6 +1,11 @@
 #include "engine/cli/mill_outputs.h"
 
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
 
 #include "engine/cli/plot_script.h"
 
@@ -13,28 +18,59 @@ std::filesystem::path fresh(const std::filesystem::path& path, bool resuming) {
   return path;
 }
 
+/// The numeric rows of a CSV this class wrote (header skipped; nan and inf as strtod reads them).
+std::vector<std::vector<double>> read_rows(const std::filesystem::path& path) {
+  std::vector<std::vector<double>> rows;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    std::vector<double> row;
+    std::stringstream fields(line);
+    for (std::string field; std::getline(fields, field, ',');) row.push_back(std::strtod(field.c_str(), nullptr));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
 }  // namespace
 
 MillOutputs::MillOutputs(const MillConfig& config, const World& world, const std::filesystem::path& out, bool resuming,
                          bool quiet)
     : config_(config),
       out_(out),
-      start_time_(world.time()),
       monitor_(config, world),
       rows_(fresh(out / "mill.csv", resuming),
-            {"time", "revolution", "torque", "power_draw", "toe_angle", "shoulder_angle"}),
+            {"time", "revolution", "torque", "power_draw", "toe_angle", "shoulder_angle", "drive_work"}),
       revolutions_(fresh(out / "mill_revolutions.csv", resuming),
-                   {"end_time", "revolution", "start_time", "torque", "power_draw", "steady"}),
+                   {"end_time", "revolution", "start_time", "torque", "power_draw", "steady", "drive_work"}),
       quiet_(quiet) {
   if (resuming) {
     rows_.truncate_after(world.time());
     revolutions_.truncate_after(world.time());
+    // Continue the means from what the run wrote before its checkpoint.
+    std::vector<MillRevolution> done;
+    for (const std::vector<double>& f : read_rows(revolutions_.path())) {
+      if (f.size() < 7) continue;  // not a row of this format
+      MillRevolution r;
+      r.end = f[0], r.index = static_cast<int>(f[1]), r.start = f[2], r.torque = f[3], r.power_draw = f[4];
+      r.steady = f[5] != 0, r.drive_work = f[6];
+      done.push_back(r);
+    }
+    std::optional<MillRow> last_row;
+    if (const auto rows = read_rows(rows_.path()); !rows.empty() && rows.back().size() >= 7) {
+      last_row.emplace();
+      last_row->time = rows.back()[0];
+      last_row->drive_work = rows.back()[6];
+    }
+    monitor_.resume(done, last_row);
   }
 }
 
 void MillOutputs::on_sync(const World& world) {
   for (const MillRevolution& r : monitor_.observe(world)) {
-    revolutions_.append({r.end, static_cast<double>(r.index), r.start, r.torque, r.power_draw, r.steady ? 1.0 : 0.0});
+    revolutions_.append(
+        {r.end, static_cast<double>(r.index), r.start, r.torque, r.power_draw, r.steady ? 1.0 : 0.0, r.drive_work});
     if (!quiet_)
       std::printf("revolution %d: t = %.4g to %.4g s, torque %.6g N m, power draw %.6g W%s\n", r.index, r.start, r.end,
                   r.torque, r.power_draw, r.steady ? "" : " (start-up, not averaged)");
@@ -43,7 +79,7 @@ void MillOutputs::on_sync(const World& world) {
 
 void MillOutputs::on_row(const World& world) {
   const MillRow r = monitor_.row(world);
-  rows_.append({r.time, r.revolution, r.torque, r.power_draw, r.toe_angle, r.shoulder_angle});
+  rows_.append({r.time, r.revolution, r.torque, r.power_draw, r.toe_angle, r.shoulder_angle, r.drive_work});
 }
 
 JsonObject MillOutputs::summary(const World& world) const {
@@ -69,7 +105,7 @@ void MillOutputs::write_spectra(const World& world, const std::string& scene_fil
     if (!quiet_) std::printf("collision spectra: booked only under the fixed control with velocity Verlet\n");
     return;
   }
-  spectra->write_csv(out_ / "spectra.csv", world.time() - start_time_);
+  spectra->write_csv(out_ / "spectra.csv", world.time());  // rates over the run from t = 0 (resumed too)
   run_plot_script("dem run", "plot_spectra.py", scene_file, out_ / "spectra.csv", quiet_);
 }
 

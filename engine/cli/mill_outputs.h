@@ -28,7 +28,6 @@ class MillOutputs {
  private:
   MillConfig config_;
   std::filesystem::path out_;
-  Real start_time_;
   MillMonitor monitor_;
   SeriesWriter rows_;
   SeriesWriter revolutions_;
