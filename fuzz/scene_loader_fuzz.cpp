@@ -43,9 +43,9 @@ bool generates_too_much(const std::string& text) {
     return false;  // the loader reports the syntax error
   }
   const toml::array* generators = root["generators"].as_array();
-  if (!generators) return false;
   std::int64_t count = 0, tries = 0;
-  for (const toml::node& node : *generators) {
+  static const toml::array none;
+  for (const toml::node& node : generators ? *generators : none) {
     const toml::table* g = node.as_table();
     if (!g) continue;
     const std::int64_t n = (*g)["count"].value_exact<std::int64_t>().value_or(0);
@@ -54,6 +54,21 @@ bool generates_too_much(const std::string& text) {
     // a float out of range with undefined behaviour (found by this target).
     count += std::clamp<std::int64_t>(n, 0, max_generated + 1);
     tries += std::clamp<std::int64_t>(n, 0, max_generated + 1) * std::clamp<std::int64_t>(a, 0, max_placement_tries + 1);
+  }
+  // A [mill] charge is a generator too: `count` balls, or as many as `filling` of the mill holds.
+  if (const toml::table* charge = root["mill"]["charge"].as_table()) {
+    double n = static_cast<double>((*charge)["count"].value_exact<std::int64_t>().value_or(0));
+    if (const auto filling = (*charge)["filling"].value<double>()) {
+      const double d = root["mill"]["diameter"].value<double>().value_or(1);
+      const double r = (*charge)["size"]["radius"].value<double>().value_or(
+          (*charge)["size"]["min"].value<double>().value_or(1e-300));
+      const double length = root["mill"]["length"].value<double>().value_or(2 * r);
+      n = *filling * d * d * length / (r * r * r);  // over-estimates what the loader places
+    }
+    const double a = static_cast<double>((*charge)["max_attempts"].value_exact<std::int64_t>().value_or(1000));
+    if (!(n <= static_cast<double>(max_generated))) return true;  // NaN and huge included
+    count += static_cast<std::int64_t>(n);
+    tries += static_cast<std::int64_t>(n * std::clamp(a, 0.0, static_cast<double>(max_placement_tries + 1)));
   }
   return count > max_generated || tries > max_placement_tries;
 }
