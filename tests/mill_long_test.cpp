@@ -11,38 +11,13 @@
 #include "engine/mill_monitor.h"
 #include "engine/scene_loader.h"
 #include "engine/world.h"
+#include "tests/mill_scenes.h"
 
 namespace dem {
 namespace {
 
-std::string sweep_scene(Real critical_fraction) {
-  return R"(
-[scene]
-dimension = 2
-thickness = 0.008
-gravity = [0, -9.81, 0]
-[[contacts]]
-normal_stiffness = 5e3
-normal_damping = { restitution = 0.5 }
-sliding_friction = 0.4
-rolling_friction = 0.02
-[mill]
-diameter = 0.2
-lifters = 8
-lifter_height = 0.012
-lifter_width = 0.008
-lifter_face_angle = 10
-critical_fraction = )" + std::to_string(critical_fraction) + R"(
-ramp_time = 0.2
-discard_revolutions = 1
-charge = { count = 200, size = { radius = 0.004 }, seed = 3 }
-[integrator]
-dt = 1e-4
-)";
-}
-
 Real mean_power(Real critical_fraction) {
-  const Scene scene = load_scene_text(sweep_scene(critical_fraction), "sweep.toml", ".");
+  const Scene scene = load_scene_text(test::mill_scene(8, critical_fraction, "count = 200", 1), "sweep.toml", ".");
   World world(scene.world);
   MillMonitor monitor(*scene.mill, world);
   const Real period = 2 * pi / scene.mill->speed;
