@@ -20,6 +20,17 @@ TEST(ContactPhysicsLong, UndampedBouncingParticleShowsNoEnergyDriftOver1e5Period
   RecordProperty("last_tenth_mean", sci(r.last_mean));
 }
 
+TEST(ContactPhysicsLong, VerletKeepsEnergyOfCompressedPackingWithin1e3WithoutTrendOver1e5Steps) {
+  // Bounds as in ContactPhysics.VerletKeepsEnergyOfCompressedPackingWithin1e3WithoutTrend.
+  const PackingRun r = run_packing(persistent_packing_config(Method::verlet), 0.3, 100'000);
+  record(r);
+  EXPECT_EQ(r.contact_events, 0u);
+  EXPECT_LE(r.max_error, 1e-3);
+  EXPECT_LE(r.max_error * r.initial_energy, 1.05 * 0.25 * 0.3 * 0.3 * r.initial_kinetic);
+  EXPECT_GE(r.min_change, -1e-12);
+  EXPECT_LE(r.last_mean, 1.2 * r.first_mean);
+}
+
 TEST(ContactPhysicsLong, VerletEnergyErrorInUndampedPackingIsBoundedWithoutTrendOver1e5Steps) {
   // Bounds as in ContactPhysics.VerletEnergyErrorInUndampedPackingIsBoundedWithoutTrend.
   const PackingRun r = run_packing(Method::verlet, 0.3, 100'000);

@@ -484,7 +484,25 @@ TEST(ContactPhysics, UndampedBouncingParticleShowsNoEnergyDriftOver1e4Periods) {
   RecordProperty("last_tenth_mean", sci(r.last_mean));
 }
 
+TEST(ContactPhysics, VerletKeepsEnergyOfCompressedPackingWithin1e3WithoutTrend) {
+  // PHYSICS.md 6.6 with velocity Verlet on many undamped contacts that persist (no gravity, zero
+  // total momentum): |dE| <= 1e-3 of the initial kinetic + elastic energy at omega_max h = 0.3, with no
+  // trend. Sharper, from the shadow energy (tests/contact_scenes.h): 0 <= dE <= (omega_max h)^2/4 of
+  // the vibration energy, and the error is Verlet's own, second order in h.
+  const WorldConfig c = persistent_packing_config(Method::verlet);
+  const PackingRun r = run_packing(c, 0.3, 20'000);
+  const PackingRun half_step = run_packing(c, 0.15, 20'000);
+  record(r);
+  EXPECT_EQ(r.contact_events, 0u);  // every contact persists: the system is linear
+  EXPECT_LE(r.max_error, 1e-3);
+  EXPECT_LE(r.max_error * r.initial_energy, 1.05 * 0.25 * 0.3 * 0.3 * r.initial_kinetic);
+  EXPECT_GE(r.min_change, -1e-12);
+  EXPECT_LE(r.last_mean, 1.2 * r.first_mean);
+  EXPECT_NEAR(std::log2(r.max_error / half_step.max_error), 2.0, 0.2);
+}
+
 TEST(ContactPhysics, VerletEnergyErrorInUndampedPackingIsBoundedWithoutTrend) {
+  // A packing that rearranges (a square lattice that buckles: contacts made and broken all the time).
   // Velocity Verlet (the fixed control's method). For a linear system it conserves
   // H - (h^2/8) sum F_i^2/m_i exactly, so |dE| <= (omega_max h)^2/4 of the elastic energy; contacts
   // made and broken add zero-mean kink errors of the same order (kUndampedC). PHYSICS.md 6.6 quotes
