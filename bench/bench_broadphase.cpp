@@ -2,12 +2,14 @@
 // monodisperse spheres at ~0.5 solid fraction (the density of a settled bed), n = 1e3, 1e4, 1e5.
 // Data is built outside the timed loop; UseRealTime, because the work runs on oneTBB threads.
 // Counters: items_per_second (particles), time_per_particle [s], pairs (printed beside each timing so a
-// speed-up that changes the result shows at once).
+// speed-up that changes the result shows at once). bench/harness.h: the slowdown hook and BM_Calibration.
 #include "broadphase/grid.h"
 #include "broadphase/kd_tree.h"
 #include "broadphase/skin.h"
 
 #include <benchmark/benchmark.h>
+
+#include "bench/harness.h"
 
 #include <cmath>
 #include <numbers>
@@ -49,14 +51,24 @@ void set_counters(benchmark::State& state, std::size_t n, std::size_t pairs) {
   state.counters["pairs"] = benchmark::Counter(static_cast<double>(pairs));
 }
 
+// The family name each broadphase's benchmark is registered under.
+template <class Broadphase>
+constexpr const char* family = nullptr;
+template <>
+constexpr const char* family<dem::broadphase::GridBroadphase> = "grid_build_and_pairs";
+template <>
+constexpr const char* family<dem::broadphase::KdTreeBroadphase> = "kd_tree_build_and_pairs";
+
 template <class Broadphase>
 void find_pairs(benchmark::State& state) {
   const auto n = static_cast<std::size_t>(state.range(0));
+  const dem::bench::Slowdown slowdown(dem::bench::bench_name(family<Broadphase>, state.range(0)));
   const Bed bed = make_bed(n);
   Broadphase broadphase;
   CandidatePairs pairs;
   broadphase.find_pairs(bed.position, bed.radius, skin, pairs);  // warm-up: buffers reach their size
   for (auto _ : state) {
+    const auto slow = slowdown.iteration();
     broadphase.find_pairs(bed.position, bed.radius, skin, pairs);
     benchmark::DoNotOptimize(pairs.partner.data());
     benchmark::ClobberMemory();
@@ -66,12 +78,14 @@ void find_pairs(benchmark::State& state) {
 
 void skin_check(benchmark::State& state) {
   const auto n = static_cast<std::size_t>(state.range(0));
+  const dem::bench::Slowdown slowdown(dem::bench::bench_name("skin_check", state.range(0)));
   Bed bed = make_bed(n);
   dem::broadphase::SkinTracker tracker;
   tracker.reset(bed.position);
   for (auto& x : bed.position) x.x() += 0.1 * skin;  // moved, but no rebuild needed
   bool rebuild = false;
   for (auto _ : state) {
+    const auto slow = slowdown.iteration();
     rebuild = tracker.needs_rebuild(bed.position, skin);
     benchmark::DoNotOptimize(rebuild);
   }
@@ -83,8 +97,8 @@ void sizes(benchmark::internal::Benchmark* b) {
   b->RangeMultiplier(10)->Range(1000, 100000)->UseRealTime()->Unit(benchmark::kMicrosecond);
 }
 
-BENCHMARK_TEMPLATE(find_pairs, dem::broadphase::GridBroadphase)->Name("grid_build_and_pairs")->Apply(sizes);
-BENCHMARK_TEMPLATE(find_pairs, dem::broadphase::KdTreeBroadphase)->Name("kd_tree_build_and_pairs")->Apply(sizes);
+BENCHMARK_TEMPLATE(find_pairs, dem::broadphase::GridBroadphase)->Name(family<dem::broadphase::GridBroadphase>)->Apply(sizes);
+BENCHMARK_TEMPLATE(find_pairs, dem::broadphase::KdTreeBroadphase)->Name(family<dem::broadphase::KdTreeBroadphase>)->Apply(sizes);
 BENCHMARK(skin_check)->Apply(sizes);
 
 }  // namespace

@@ -30,6 +30,9 @@
 //   integrate  kick(h/2), drift(h), kick(h/2)
 // What a whole interval costs beyond its stages (skin check, finite-state check, and under doubling
 // the islands, error estimates, redos and bookkeeping) is left to the report to subtract.
+//
+// bench/harness.h: the slowdown hook, BM_Calibration, and smoke runs (DEM_BENCH_SMOKE=1: one
+// iteration of one interval, or of one stage call, at every size).
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
@@ -40,6 +43,7 @@
 
 #include <tbb/task_arena.h>
 
+#include "bench/harness.h"
 #include "bench/scaled_workloads.h"
 #include "broadphase/grid.h"
 #include "engine/contacts.h"
@@ -86,10 +90,12 @@ int intervals_per_iteration(std::size_t n, Control control, Method method) {
   double budget = 4e5;                                   // particle-steps
   if (control == Control::doubling) budget /= 3 * 8;     // three trials of 8 steps per interval
   if (method == Method::exact) budget /= 4;              // a quarter of Verlet's rate
-  return std::max(1, static_cast<int>(budget / static_cast<double>(n)));
+  return dem::bench::iterations(std::max(1, static_cast<int>(budget / static_cast<double>(n))));
 }
 
-void run_intervals(benchmark::State& bench, const Case& c, Control control, Method method, int intervals) {
+void run_intervals(benchmark::State& bench, const std::string& name, const Case& c, Control control, Method method,
+                   int intervals) {
+  const dem::bench::Slowdown slowdown(name);
   World world(case_config(c, control, method));
   if (world.advance_sync_interval() != StepStatus::ok) {
     bench.SkipWithError("warm-up interval diverged");
@@ -97,8 +103,10 @@ void run_intervals(benchmark::State& bench, const Case& c, Control control, Meth
   }
   const RunCounters before = world.counters();
   bool ok = true;
-  for (auto _ : bench)
+  for (auto _ : bench) {
+    const auto slow = slowdown.iteration();
     for (int i = 0; i < intervals; ++i) ok = world.advance_sync_interval() == StepStatus::ok && ok;
+  }
   if (!ok) {
     bench.SkipWithError("a timed interval diverged");
     return;
@@ -154,7 +162,8 @@ struct StageData {
   ContactWorkspace workspace;
 };
 
-void run_stage(benchmark::State& bench, const Case& c, Stage stage) {
+void run_stage(benchmark::State& bench, const std::string& name, const Case& c, Stage stage) {
+  const dem::bench::Slowdown slowdown(name);
   const WorldConfig config = case_config(c, Control::fixed, Method::verlet);
   auto world = std::make_unique<World>(config);
   world->advance_sync_interval();
@@ -187,6 +196,7 @@ void run_stage(benchmark::State& bench, const Case& c, Stage stage) {
     forces();
   });
   for (auto _ : bench) {
+    const auto slow = slowdown.iteration();
     arena.execute([&] {
       switch (stage) {
         case Stage::grid: d->grid.find_pairs(d->state.position, d->state.radius, d->skin, d->candidates); break;
@@ -224,15 +234,16 @@ void register_all() {
             const std::string name = std::string("interval/") + workload_name(w) + "/" +
                                      (control == Control::fixed ? "fixed" : "doubling") + "/" +
                                      (method == Method::verlet ? "verlet" : "exact") + tail;
-            benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) { run_intervals(s, c, control, method, intervals); })
-                ->Iterations(n >= 1000000 ? 1 : 3)
+            benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) { run_intervals(s, name, c, control, method, intervals); })
+                ->Iterations(dem::bench::iterations(n >= 1000000 ? 1 : 3))
                 ->UseRealTime()
                 ->Unit(benchmark::kMillisecond);
           }
         for (Stage stage : {Stage::grid, Stage::contacts, Stage::forces, Stage::integrate}) {
           const std::string name = std::string("stage/") + workload_name(w) + "/" + stage_name(stage) + tail;
-          const auto iterations = static_cast<benchmark::IterationCount>(std::max<std::size_t>(5, 2000000 / n));
-          benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) { run_stage(s, c, stage); })
+          const auto iterations = static_cast<benchmark::IterationCount>(
+              dem::bench::iterations(static_cast<int>(std::max<std::size_t>(5, 2000000 / n))));
+          benchmark::RegisterBenchmark(name.c_str(), [=](benchmark::State& s) { run_stage(s, name, c, stage); })
               ->Iterations(iterations)
               ->UseRealTime()
               ->Unit(benchmark::kMicrosecond);
