@@ -129,6 +129,10 @@ struct IntegratorConfig {
   Real velocity_weight = 1;
   Real dx_min = 1e-3;  // relative to the radius
   bool richardson = true;
+  // false: seed formula (3), velocity errors weighted by the step; true: by the sync interval, with
+  // the dx_min floor scaled by step / sync interval (error per unit step: the global error is then
+  // proportional to the tolerance, at the price of finer steps; engine/step_control.h)
+  bool error_per_unit_step = false;
 };
 
 struct BroadphaseConfig {

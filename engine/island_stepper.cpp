@@ -56,6 +56,11 @@ void track_excursion(IslandState& s, const std::vector<Vec3>& origin, Real bulge
     s.excursion[q] = std::max(s.excursion[q], (s.state.position[q] - origin[q]).norm() + bulge);
 }
 
+/// T of the error norm (step_control.h) for a step of h.
+Real reference_time(const DoublingSettings& settings, Real h) {
+  return settings.reference_time > 0 ? settings.reference_time : h;
+}
+
 /// Largest error of seed formula (3) over the island's movable members; NaN if any is NaN.
 Real island_error(const IslandState& start, const IslandState& full, const IslandState& half, Real h,
                   const DoublingSettings& settings) {
@@ -66,8 +71,8 @@ Real island_error(const IslandState& start, const IslandState& full, const Islan
     if (a.inv_mass[q] == 0) continue;
     const TrialState one{a.position[q], a.velocity[q], a.angular_velocity[q]};
     const TrialState two{b.position[q], b.velocity[q], b.angular_velocity[q]};
-    const Real e = step_error(one, two, b.position[q] - start.state.position[q], h, a.radius[q],
-                              settings.velocity_weight, settings.dx_min);
+    const Real e = step_error(one, two, b.position[q] - start.state.position[q], h, reference_time(settings, h),
+                              a.radius[q], settings.velocity_weight, settings.dx_min);
     if (!(e <= worst)) worst = e;  // NaN wins, so a broken trial is rejected
   }
   return worst;
@@ -81,12 +86,14 @@ Real event_error(const IslandState& start, const IslandState& end, Real h, const
   Real worst = 0;
   const State& a = start.state;
   const State& b = end.state;
+  const Real weight = settings.velocity_weight * reference_time(settings, h);
   for (std::size_t q = 0; q < a.size(); ++q) {
     if (a.inv_mass[q] == 0) continue;
     const Real jump = a.inv_mass[q] * (b.force[q] - a.force[q]).norm();
     const Real spin_jump = a.inv_inertia[q] * (b.torque[q] - a.torque[q]).norm();
-    const Real numerator = jump * h * h / 8 + settings.velocity_weight * h * (jump + a.radius[q] * spin_jump) * h / 2;
-    const Real e = numerator / ((b.position[q] - a.position[q]).norm() + settings.dx_min * a.radius[q]);
+    const Real numerator = jump * h * h / 8 + weight * (jump + a.radius[q] * spin_jump) * h / 2;
+    const Real e = numerator / ((b.position[q] - a.position[q]).norm() +
+                                settings.dx_min * a.radius[q] * h / reference_time(settings, h));
     if (!(e <= worst)) worst = e;
   }
   return worst;
@@ -218,7 +225,10 @@ int advance_island(IslandState& island, const broadphase::CandidatePairs& candid
       counters.rejected += redone;
       const bool no_event = same_contacts(island, full, half);
       Real error = island_error(island, full, half, h, settings);
-      if (!no_event) error = std::max(error, event_error(island, half, h, settings));
+      // A smooth step's error budget is per unit step (it recurs all along the path); an event's is
+      // one fixed amount (it happens once, and its error is only first order in h): the norm over
+      // the reference time's displacement instead of the step's.
+      if (!no_event) error = std::max(error, event_error(island, half, h, settings)) * (h / reference_time(settings, h));
       const bool aligned = (tick + ticks) % (2 * ticks) == 0;
       const LevelDecision d = decide_level(error, level, settings.level_min, settings.level_max, order,
                                            settings.safety, settings.tolerance, aligned);

@@ -59,6 +59,7 @@ struct DoublingSettings {
   Real safety = 0.8;
   Real velocity_weight = 1;
   Real dx_min = 1e-3;     // relative to the radius
+  Real reference_time = 0;  // [s] T of the error norm (step_control.h); 0: the step itself (the seed's)
   bool richardson = true;
   int contact_level = 0;  // a step at or below this level resolves any contact (Verlet anticipation)
 };

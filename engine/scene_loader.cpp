@@ -684,6 +684,7 @@ bool read_integrator(TableReader& top, Scene& scene) {
   c.velocity_weight = r.non_negative("velocity_weight", c.velocity_weight);
   c.dx_min = r.positive("dx_min", c.dx_min);
   c.richardson = r.boolean("richardson", c.richardson);
+  c.error_per_unit_step = r.boolean("error_per_unit_step", c.error_per_unit_step);
   r.finish();
   if (c.method == Method::exact)
     for (const ContactConfig& contact : scene.world.contacts)

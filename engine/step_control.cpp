@@ -2,15 +2,19 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace dem {
 
-Real step_error(const TrialState& one, const TrialState& two, const Vec3& displacement, Real dt, Real radius,
-                Real velocity_weight, Real dx_min) {
-  const Real numerator = (one.position - two.position).norm() +
-                         velocity_weight * dt * (one.velocity - two.velocity).norm() +
-                         velocity_weight * radius * dt * (one.angular_velocity - two.angular_velocity).norm();
-  return numerator / (displacement.norm() + dx_min * radius);
+Real step_error(const TrialState& one, const TrialState& two, const Vec3& displacement, Real h, Real reference_time,
+                Real radius, Real velocity_weight, Real dx_min) {
+  const Real weight = velocity_weight * reference_time;
+  const Real difference = (one.position - two.position).norm() + weight * (one.velocity - two.velocity).norm() +
+                          weight * radius * (one.angular_velocity - two.angular_velocity).norm();
+  const Real noise = 16 * std::numeric_limits<Real>::epsilon() *
+                     (two.position.norm() + weight * two.velocity.norm() + weight * radius * two.angular_velocity.norm());
+  const Real numerator = difference > noise ? difference - noise : difference * 0;  // NaN stays NaN
+  return numerator / (displacement.norm() + dx_min * radius * h / reference_time);
 }
 
 LevelDecision decide_level(Real error, int level, int level_min, int level_max, int order, Real safety,

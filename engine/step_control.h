@@ -13,12 +13,19 @@ struct TrialState {
   Vec3 angular_velocity;  // [rad/s]
 };
 
-/// Seed formula (3) as reconstructed, with the angular extension [E]:
-///   E = (|x1 - x2| + w dt |v1 - v2| + w R dt |omega1 - omega2|) / (|dX| + dx_min R)
-/// with one = the full step, two = two half steps, dt the full step [s], dX the displacement over the
-/// step [m], w the velocity weight and dx_min relative to the radius R.
-Real step_error(const TrialState& one, const TrialState& two, const Vec3& displacement, Real dt, Real radius,
-                Real velocity_weight, Real dx_min);
+/// Seed formula (3) as reconstructed, with the angular extension and a fixed velocity weight [E]:
+///   E = (|x1 - x2| + w T |v1 - v2| + w R T |omega1 - omega2| - noise) / (|dX| + dx_min R h / T)
+/// with one = the full step, two = two half steps, h the full step [s], dX the displacement over the
+/// step [m], w the velocity weight, dx_min relative to the radius R, and T the reference time [s]
+/// (T = h gives the seed's weighting exactly). With a fixed T (the World uses the sync interval) the
+/// norm bounds the error per unit step: a velocity error made now is weighted by how far it carries
+/// the particle over T, not over the (shrinking) step, and the floor for slow particles scales with
+/// h, so summed over a trajectory the accepted errors add up to tolerance times the path, and the
+/// global error is proportional to the tolerance. noise = 16 eps (|x2| + w T |v2| + w R T |omega2|):
+/// differences within round-off of the state itself are not error (else a particle at rest could
+/// never satisfy a tight tolerance at any step). Never negative.
+Real step_error(const TrialState& one, const TrialState& two, const Vec3& displacement, Real h, Real reference_time,
+                Real radius, Real velocity_weight, Real dx_min);
 
 /// What to do after a trial at `level` with error `error` (PHYSICS.md 4, 5).
 struct LevelDecision {

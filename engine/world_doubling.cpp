@@ -265,6 +265,7 @@ void World::run_islands(const std::vector<std::uint32_t>& which, std::int64_t ti
   settings.safety = c.safety;
   settings.velocity_weight = c.velocity_weight;
   settings.dx_min = c.dx_min;
+  settings.reference_time = c.error_per_unit_step ? scheduler_.sync_interval() : 0;
   settings.richardson = c.richardson;
   settings.contact_level = d.contact_level;
   const Real t0 = scheduler_.time(Clock{clock_.interval, 0});

@@ -1,8 +1,9 @@
 // Step doubling through the World (control = doubling; PHYSICS.md 4, 5; DESIGN.md, Time):
 //  1. Tolerance means something: the error against a converged reference falls as the tolerance
 //     tightens from 1e-2 to 1e-7, and error / tolerance stays within a factor 10 over that range
-//     (seed slope, PHYSICS.md 6.8 engine variant, and a 50-particle cluster falling onto a plane);
-//     tolerances down to 1e-12 terminate with forced steps counted.
+//     (seed slope, PHYSICS.md 6.8 engine variant, with integrator.error_per_unit_step against the
+//     exact stepper; and a 50-particle cluster falling onto a plane, with the seed's norm); tolerances
+//     down to 1e-12 terminate with forced steps counted.
 //  2. A particle flying at a wall at v h_max = 10 R spends >= 90% of its steps at level_max, is
 //     demoted only near the wall, never tunnels and bounces with the PHYSICS.md 1.2 restitution.
 //  3. Two islands at different levels that touch inside one round are merged and the round redone;
@@ -15,8 +16,13 @@
 //
 // Known failures (measured, reported to the lead; the tests are skipped unless the environment sets
 // DEM_RUN_KNOWN_FAILURES=1, so the default suite stays green while they are open):
-//  - error / tolerance is not within a factor 10 over tolerances 1e-2 .. 1e-7: the error falls only
-//    as ~ tol^0.4 (max / min of error / tolerance ~ 1.6e3 on both scenes, printed by the tests).
+//  - on the 50-particle cluster, error / tolerance spreads 2.4e3 times over tolerances 1e-2 .. 1e-7
+//    with the seed's norm (formula (3) weighs a velocity error by the step, so the error falls only
+//    as ~ tol^0.4). error_per_unit_step does not rescue it: Verlet's dashpot uses the half-step
+//    velocity, so in lasting damped contacts it is first order and tolerances of 1e-5 and below
+//    reach level_min (measured: spread 28, 4e8 particle-steps at 1e-7). Undamped (e = 1) the spread
+//    is 16, within 2.6 up to 1e-6, and the error at 1e-7 (3e-9 m) is the exact-stepper reference's
+//    own (2^-20 s against 2^-21 s), which a suite-sized run cannot refine.
 //  - the packing's energy error has a trend (it accumulates in steps at contact events instead of
 //    oscillating) at tolerance 1e-2: mean |dE| over the last tenth of 2e4 sync intervals ~ 20x that
 //    over the first tenth.
@@ -80,7 +86,7 @@ void print_sweep(const char* scene, const Sweep& s) {
 // zeta_t = 0.2, mu = 0.7, mu_s = 1, mu_r = 0.4, mu_rs = 0.3, standard rolling mode, start at the
 // equilibrium overlap with v = 10 down-slope. dt_base = 2^-10 s; sync interval 2^-7 s (level_max 3).
 constexpr Real slope_dt_base = 0x1p-10;
-constexpr int slope_level_max = 3;
+constexpr int slope_level_max = 5;
 
 WorldConfig seed_slope() {
   WorldConfig c;
@@ -107,7 +113,8 @@ WorldConfig seed_slope() {
 // Positions at every sync time over the scene's 8 s.
 std::vector<Vec3> slope_trajectory(Real tolerance) {
   WorldConfig c = seed_slope();
-  set_doubling(c, slope_dt_base, slope_level_max - 17, slope_level_max, tolerance);
+  set_doubling(c, slope_dt_base, slope_level_max - 28, slope_level_max, tolerance);
+  c.integrator.error_per_unit_step = true;
   World world(c);
   const long intervals = std::lround(8.0 / world.sync_interval());
   std::vector<Vec3> path;
@@ -119,14 +126,28 @@ std::vector<Vec3> slope_trajectory(Real tolerance) {
   return path;
 }
 
-// Reference: doubling at tolerance 1e-10, checked against 1e-11 (DESIGN.md, measuring the trade).
-// (A fixed-dt Verlet run at 2^-20 s, 6e6 steps, is too slow for the suite; measured once, it lies
-// within 4e-6 m of this reference, below a tenth of the error at tolerance 1e-7.)
+// The same positions from the exact stepper at a fixed step of sync_interval / substeps: an
+// independent method, exact between the mode switches it finds as roots (PHYSICS.md 3.3, 1.5).
+std::vector<Vec3> slope_exact_trajectory(long substeps) {
+  WorldConfig c = seed_slope();
+  c.integrator.method = Method::exact;
+  c.integrator.dt = std::ldexp(slope_dt_base, slope_level_max) / static_cast<Real>(substeps);
+  World world(c);
+  const long intervals = std::lround(8.0 / std::ldexp(slope_dt_base, slope_level_max));
+  std::vector<Vec3> path;
+  for (long s = 0; s < intervals; ++s) {
+    for (long k = 0; k < substeps; ++k) EXPECT_EQ(world.advance_sync_interval(), StepStatus::ok);
+    path.push_back(world.state().position[0]);
+  }
+  return path;
+}
+
+// Reference: the exact stepper at one step per sync interval, checked against eight.
 const Sweep& slope_sweep() {
   static const Sweep sweep = [] {
-    const std::vector<Vec3> reference = slope_trajectory(1e-10);
+    const std::vector<Vec3> reference = slope_exact_trajectory(1);
     Sweep s;
-    s.reference_refinement = max_distance(reference, slope_trajectory(1e-11));
+    s.reference_refinement = max_distance(reference, slope_exact_trajectory(8));
     for (Real tol : sweep_tolerances) s.error.push_back(max_distance(slope_trajectory(tol), reference));
     // The reference is the physics of PHYSICS.md 6.8: standard-mode stop distance 19.357 within 0.5%.
     EXPECT_NEAR(reference.back().x(), 19.357, 0.005 * 19.357);
@@ -229,11 +250,7 @@ Real spread_of_error_over_tolerance(const Sweep& s) {
 TEST(Doubling, SeedSlopeErrorFallsAsToleranceTightens) { expect_error_falls(slope_sweep()); }
 
 TEST(Doubling, SeedSlopeErrorIsProportionalToTolerance) {
-  const Real spread = spread_of_error_over_tolerance(slope_sweep());
-  if (!run_known_failures())
-    GTEST_SKIP() << "known engine failure, reported: max/min of error/tolerance is " << spread
-                 << " (DEM_RUN_KNOWN_FAILURES=1 runs the check)";
-  EXPECT_LT(spread, 10.0);
+  EXPECT_LT(spread_of_error_over_tolerance(slope_sweep()), 10.0);
 }
 
 TEST(Doubling, ClusterErrorFallsAsToleranceTightens) { expect_error_falls(cluster_sweep()); }

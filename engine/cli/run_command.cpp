@@ -381,6 +381,7 @@ int run_command(const RunOptions& options) {
       .add("control", scene.world.integrator.control == Control::fixed ? "fixed" : "doubling")
       .add("dt", scene.world.integrator.dt)
       .add("tolerance", scene.world.integrator.tolerance)
+      .add("error_per_unit_step", scene.world.integrator.error_per_unit_step)
       .add("level_min", scene.world.integrator.level_min)
       .add("level_max", scene.world.integrator.level_max)
       .add("until", scene.run.until)
