@@ -23,9 +23,6 @@
 //    reach level_min (measured: spread 28, 4e8 particle-steps at 1e-7). Undamped (e = 1) the spread
 //    is 16, within 2.6 up to 1e-6, and the error at 1e-7 (3e-9 m) is the exact-stepper reference's
 //    own (2^-20 s against 2^-21 s), which a suite-sized run cannot refine.
-//  - the packing's energy error has a trend (it accumulates in steps at contact events instead of
-//    oscillating) at tolerance 1e-2: mean |dE| over the last tenth of 2e4 sync intervals ~ 20x that
-//    over the first tenth.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -597,11 +594,10 @@ TEST(Doubling, UndampedPackingEnergyErrorStaysWithin1e3) {
 }
 
 TEST(Doubling, UndampedPackingEnergyErrorHasNoTrend) {
-  // The exact-stepper measure: last-tenth mean within 8x the first-tenth mean.
+  // The exact-stepper measure: last-tenth mean within 8x the first-tenth mean (a linear drift from 0
+  // gives ~19, a random walk of contact-event errors ~4.5). Measured 6.8: the error grows over the
+  // first tenths, as contact events at level changes add to it, then stays level.
   const PackingRun& r = short_packing();
-  if (!run_known_failures())
-    GTEST_SKIP() << "known engine failure, reported: last-tenth mean / first-tenth mean is " << r.last_mean / r.first_mean
-                 << " (DEM_RUN_KNOWN_FAILURES=1 runs the check)";
   EXPECT_LE(r.last_mean, 8 * r.first_mean);
 }
 
