@@ -67,6 +67,26 @@ TEST(CliDivergence, VerletBeyondTheStabilityLimitStopsWithExitThree) {
   EXPECT_EQ(run("--set integrator.dt=0.1 --until 0.0001 --resume " + good.string(), base / "resumed"), 0);
 
   EXPECT_EQ(run("", base / "stable"), 0) << read(base / "stable.err");
+  EXPECT_EQ(read(base / "stable.err").find("warning"), std::string::npos) << read(base / "stable.err");
+  fs::remove_all(base);
+}
+
+TEST(CliDivergence, AStepBeyondTheStabilityLimitIsWarnedAtLoadAndDoublingAdapts) {
+  const fs::path base = scratch("warn");
+  EXPECT_EQ(run("--set integrator.dt=0.1 --until 0.05", base / "fixed"), 0);  // stopped before it diverges
+  const std::string err = read(base / "fixed.err");
+  EXPECT_NE(err.find("warning: dt = 0.1 s exceeds the stability limit"), std::string::npos) << err;
+  EXPECT_NE(err.find("integrator.dt"), std::string::npos) << "the warning names the setting to change";
+  // The same step as the base of step doubling: its finest level is stable, so no warning, and the
+  // run completes (the control adapts the step where the contact needs it).
+  EXPECT_EQ(run("--set integrator.dt=0.1 --set integrator.control=doubling", base / "doubling"), 0)
+      << read(base / "doubling.err");
+  EXPECT_EQ(read(base / "doubling.err").find("warning"), std::string::npos) << read(base / "doubling.err");
+  // Doubling whose finest step is still beyond the limit is warned too, naming level_min.
+  EXPECT_EQ(run("--set integrator.dt=0.1 --set integrator.control=doubling --set integrator.level_min=0 --until 0.05",
+                base / "coarse"),
+            0);
+  EXPECT_NE(read(base / "coarse.err").find("integrator.level_min"), std::string::npos) << read(base / "coarse.err");
   fs::remove_all(base);
 }
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include "engine/cli/commands.h"
 #include "engine/cli/energy_audit.h"
+#include "engine/cli/stability.h"
 #include "engine/cli/mill_outputs.h"
 #include "engine/cli/version.h"
 
@@ -230,6 +231,10 @@ class ProgressBar {
 
 int run_command(const RunOptions& options) {
   Scene scene = load_scene(options.scene, options.overrides);
+  // A step beyond Verlet's stability limit is allowed (the energy audit stops the run if it
+  // diverges), but said at once.
+  for (const std::string& warning : stability_warnings(scene.world, contact_stability(scene.world)))
+    std::fprintf(stderr, "dem: warning: %s\n", warning.c_str());
   if (options.threads >= 0) scene.world.threads = options.threads;
   if (options.until > 0) scene.run.until = options.until;
   const std::filesystem::path out = options.out.empty() ? std::filesystem::path("out") / scene.name : std::filesystem::path(options.out);
