@@ -119,7 +119,7 @@ class ByteReader {
   }
   void take(void* out, std::size_t n) {
     if (end_ - at_ < n) fail("unexpected end of file");
-    std::memcpy(out, bytes_.data() + at_, n);
+    if (n > 0) std::memcpy(out, bytes_.data() + at_, n);  // an empty vector's data() may be null
     at_ += n;
   }
   bool done() const { return at_ == end_; }
