@@ -6,8 +6,6 @@
 
 #include "broadphase/parallel.h"
 
-#include <tbb/parallel_reduce.h>
-
 #include <algorithm>
 #include <bit>
 #include <cassert>
@@ -78,10 +76,10 @@ void GridBroadphase::find_pairs(std::span<const Vec3> positions, std::span<const
   }
 
   // Largest radius and coordinate magnitude: exact max reductions, any split gives the same answer.
-  const Extent extent = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, n, 4096), Extent{},
-      [&](const tbb::blocked_range<std::size_t>& r, Extent e) {
-        for (std::size_t i = r.begin(); i < r.end(); ++i) {
+  const Extent extent = exact_reduce(
+      n, 4096, Extent{},
+      [&](std::size_t begin, std::size_t end, Extent e) {
+        for (std::size_t i = begin; i < end; ++i) {
           e.radius_max = std::max(e.radius_max, radii[i]);
           e.coordinate_max = std::max(e.coordinate_max, positions[i].cwiseAbs().maxCoeff());
         }
@@ -106,7 +104,7 @@ void GridBroadphase::find_pairs(std::span<const Vec3> positions, std::span<const
   // (its neighbourhood is then reused) and read neighbouring memory; slot t fills the row of particle
   // sorted_[t], which no other slot touches.
   const auto for_each_query = [&](auto&& query) {
-    detail::parallel_ranges(n, query_grain, [&](std::size_t begin, std::size_t end) {
+    parallel_ranges(n, query_grain, [&](std::size_t begin, std::size_t end) {
       Neighbourhood hood;
       for (std::size_t t = begin; t < end; ++t) {
         const Cell c = cell_of(slot_[t].position);
@@ -159,7 +157,7 @@ void GridBroadphase::sort_into_buckets(std::span<const Vec3> positions, std::spa
   block_bounds_.resize(block_count);
 
   // Level 1, count: buckets, per-block super-bucket histogram and cell bounds.
-  detail::parallel_ranges(block_count, 1, [&](std::size_t b0, std::size_t b1) {
+  parallel_ranges(block_count, 1, [&](std::size_t b0, std::size_t b1) {
     for (std::size_t b = b0; b < b1; ++b) {
       std::uint32_t* histogram = block_offset_.data() + b * super_count;
       std::fill(histogram, histogram + super_count, 0u);
@@ -196,7 +194,7 @@ void GridBroadphase::sort_into_buckets(std::span<const Vec3> positions, std::spa
   super_start_[super_count] = running;
 
   // Level 1, fill: each block writes its own ranges, in ascending particle order.
-  detail::parallel_ranges(block_count, 1, [&](std::size_t b0, std::size_t b1) {
+  parallel_ranges(block_count, 1, [&](std::size_t b0, std::size_t b1) {
     for (std::size_t b = b0; b < b1; ++b) {
       std::uint32_t* cursor = block_offset_.data() + b * super_count;
       for (std::size_t i = b * block_size; i < std::min(n, (b + 1) * block_size); ++i) {
@@ -207,7 +205,7 @@ void GridBroadphase::sort_into_buckets(std::span<const Vec3> positions, std::spa
 
   // Level 2: each super-bucket owns buckets [s << shift, (s + 1) << shift) and its range of slots.
   const std::size_t buckets_per_super = std::size_t{1} << super_shift;
-  detail::parallel_ranges(super_count, 1, [&](std::size_t s0, std::size_t s1) {
+  parallel_ranges(super_count, 1, [&](std::size_t s0, std::size_t s1) {
     for (std::size_t s = s0; s < s1; ++s) {
       std::uint32_t* start = bucket_start_.data() + s * buckets_per_super;
       std::fill(start, start + buckets_per_super, 0u);
@@ -288,8 +286,9 @@ void GridBroadphase::find_neighbourhood(const Cell& cell, Neighbourhood& hood) c
 
 // The candidate test of slot t against slot u: partner j = sorted_[u] > i and is_candidate.
 bool GridBroadphase::is_partner(std::size_t t, std::uint32_t u, double skin) const {
-  return (sorted_[u] > sorted_[t]) &
-         is_candidate(slot_[t].position, slot_[t].radius, slot_[u].position, slot_[u].radius, skin);
+  // Bitwise, not &&: both sides are cheap, and no branch on the first (clang warns of a bool & bool).
+  const bool candidate = is_candidate(slot_[t].position, slot_[t].radius, slot_[u].position, slot_[u].radius, skin);
+  return static_cast<unsigned>(sorted_[u] > sorted_[t]) & static_cast<unsigned>(candidate);
 }
 
 // Branch-free on the test's outcome, which goes either way about half the time (the j > i part).

@@ -1,8 +1,9 @@
 #pragma once
 // Hashed uniform grid broadphase.
 // Reads: positions [m], radii [m], skin [m]. Writes: a CandidatePairs, and the grid's own scratch buffers.
-// Threading: oneTBB loops inside the caller's task arena; the output is bit-identical for every thread
-// count. One object owns its scratch buffers, so it must not run two calls at once.
+// Threading: parallel loops (broadphase/parallel.h) inside the caller's task arena; the output is
+// bit-identical for every thread count. One object owns its scratch buffers, so it must not run two calls
+// at once.
 #include "broadphase/candidate_pairs.h"
 
 #include <cstdint>

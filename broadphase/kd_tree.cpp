@@ -6,7 +6,6 @@
 
 #include "broadphase/parallel.h"
 
-#include <tbb/parallel_reduce.h>
 #include <nanoflann.hpp>
 
 #include <algorithm>
@@ -97,10 +96,10 @@ void KdTreeBroadphase::find_pairs(std::span<const Vec3> positions, std::span<con
     return;
   }
 
-  const double radius_max = tbb::parallel_reduce(  // exact max: any split gives the same answer
-      tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
-      [&](const tbb::blocked_range<std::size_t>& r, double m) {
-        for (std::size_t i = r.begin(); i < r.end(); ++i) m = std::max(m, radii[i]);
+  const double radius_max = exact_reduce(  // exact max: any split gives the same answer
+      n, 4096, 0.0,
+      [&](std::size_t begin, std::size_t end, double m) {
+        for (std::size_t i = begin; i < end; ++i) m = std::max(m, radii[i]);
         return m;
       },
       [](double a, double b) { return std::max(a, b); });
@@ -125,13 +124,13 @@ void KdTreeBroadphase::find_pairs(std::span<const Vec3> positions, std::span<con
   // owns the row of particle order[q], which no other query touches.
   const std::vector<std::uint32_t>& order = tree_->index.vAcc;
   std::span<std::uint32_t> counts(out.row_start.data() + 1, n);
-  detail::parallel_ranges(n, query_grain, [&](std::size_t begin, std::size_t end) {
+  parallel_ranges(n, query_grain, [&](std::size_t begin, std::size_t end) {
     for (std::size_t q = begin; q < end; ++q) counts[order[q]] = search(order[q], nullptr);
   });
   const std::uint64_t pair_count = detail::inclusive_scan_in_place(counts, scan_scratch_);
   assert(pair_count <= std::numeric_limits<std::uint32_t>::max());
   out.partner.resize(pair_count);
-  detail::parallel_ranges(n, query_grain, [&](std::size_t begin, std::size_t end) {
+  parallel_ranges(n, query_grain, [&](std::size_t begin, std::size_t end) {
     for (std::size_t q = begin; q < end; ++q) {
       std::uint32_t* row = out.partner.data() + out.row_start[order[q]];
       std::sort(row, row + search(order[q], row));

@@ -1,9 +1,9 @@
 #pragma once
 // k-d tree broadphase over nanoflann (wide size ranges, cross-checks of the grid).
 // Reads: positions [m], radii [m], skin [m]. Writes: a CandidatePairs, and the tree it owns.
-// Threading: the tree is built serially (nanoflann 1.4); the queries run as oneTBB loops inside the
-// caller's task arena, and the output is bit-identical for every thread count. One object must not run
-// two calls at once.
+// Threading: the tree is built serially (nanoflann 1.4); the queries run as parallel loops
+// (broadphase/parallel.h) in the caller's task arena, and the output is bit-identical for every thread
+// count. One object must not run two calls at once.
 #include "broadphase/candidate_pairs.h"
 
 #include <cstdint>

@@ -1,11 +1,10 @@
 // Skin tracker (see skin.h).
 // Reads: positions [m]. Writes: the reference positions (reset only).
-// Threading: max reductions with oneTBB; max is exact, so any split gives the same answer. NaN is made
-// sticky explicitly, so a non-finite displacement is never hidden by the order of comparisons.
+// Threading: max reductions (broadphase/parallel.h); max is exact, so any split gives the same answer.
+// NaN is made sticky explicitly, so a non-finite displacement is never hidden by the order of comparisons.
 #include "broadphase/skin.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
+#include "broadphase/parallel.h"
 
 #include <cmath>
 #include <limits>
@@ -31,10 +30,10 @@ double SkinTracker::max_displacement_sq(std::span<const Vec3> positions) const {
   if (!has_reference_ || positions.size() != reference_.size()) {
     return std::numeric_limits<double>::infinity();
   }
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, positions.size(), 4096), 0.0,
-      [&](const tbb::blocked_range<std::size_t>& r, double m) {
-        for (std::size_t i = r.begin(); i < r.end(); ++i) {
+  return exact_reduce(
+      positions.size(), 4096, 0.0,
+      [&](std::size_t begin, std::size_t end, double m) {
+        for (std::size_t i = begin; i < end; ++i) {
           m = max_keep_nan(m, (positions[i] - reference_[i]).squaredNorm());
         }
         return m;

@@ -1,8 +1,8 @@
 #pragma once
 // Skin tracker: decides when the candidate pairs must be rebuilt.
 // Reads: positions [m] (and the reference copy taken at the last reset). Writes: the reference copy, in
-// `reset` only. Threading: oneTBB reductions inside the caller's task arena (max is exact, so the answer
-// does not depend on the thread count); the const queries may run concurrently.
+// `reset` only. Threading: max reductions (broadphase/parallel.h) in the caller's task arena (max is
+// exact, so the answer does not depend on the thread count); the const queries may run concurrently.
 #include "broadphase/candidate_pairs.h"
 
 #include <span>

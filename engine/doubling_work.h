@@ -4,10 +4,9 @@
 #include <cstdint>
 #include <vector>
 
-#include <tbb/enumerable_thread_specific.h>
-
 #include "engine/island_stepper.h"
 #include "engine/islands.h"
+#include "engine/parallel.h"
 
 namespace dem {
 
@@ -38,8 +37,8 @@ struct DoublingWork {
   std::vector<Real> excursion;                        // per particle: farthest from its round start [m]
   State next;                                         // the state at the end of the round
   Walls round_walls;                                  // the walls at the start of the round
-  tbb::enumerable_thread_specific<IslandScratch> scratch;
-  tbb::enumerable_thread_specific<DoublingCounters> counters;
+  PerThread<IslandScratch> scratch;
+  PerThread<DoublingCounters> counters;
 };
 
 }  // namespace dem

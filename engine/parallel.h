@@ -1,17 +1,29 @@
 #pragma once
-// The engine's only oneTBB user. Loops run in the caller's task arena (the World's), so the thread
-// count is set in exactly one place. Contracts (STYLE.md, deterministic parallelism):
+// The engine's parallel helpers, over the project's one backend (broadphase/parallel.h: oneTBB, or
+// std::threads in the ThreadSanitizer build). Loops run in the caller's TaskArena (the World's), so the
+// thread count is set in exactly one place. Contracts (STYLE.md, deterministic parallelism):
 //  - parallel_for bodies write only slots owned by their index;
 //  - block_sum adds fixed-size blocks (size independent of the thread count) and combines the block
-//    partials serially in block order, so floating sums are bitwise identical for any thread count.
+//    partials serially in block order, so floating sums are bitwise identical for any thread count;
+//  - parallel_any and exact_reduce combine with exact, order-free operations;
+//  - PerThread is scratch, or integer counters summed in any order; never floating sums.
 #include <cstddef>
 #include <vector>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
+#include "broadphase/parallel.h"
+
+#if DEM_PARALLEL_STD_THREAD
+#include <map>
+#include <mutex>
+#include <thread>
+#else
+#include <tbb/enumerable_thread_specific.h>
+#endif
 
 namespace dem {
+
+using broadphase::TaskArena;
+using broadphase::exact_reduce;
 
 inline constexpr std::size_t default_grain = 256;
 
@@ -22,8 +34,8 @@ void parallel_for(std::size_t n, const Body& body, std::size_t grain = default_g
     for (std::size_t i = 0; i < n; ++i) body(i);
     return;
   }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) body(i);
+  broadphase::parallel_ranges(n, grain, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i != end; ++i) body(i);
   });
 }
 
@@ -56,14 +68,56 @@ T block_sum(std::size_t n, const Value& value, T zero = T{}) {
 /// True when pred(i) holds for some i in [0, n). Logical OR is order-free, so any reduction is exact.
 template <class Pred>
 bool parallel_any(std::size_t n, const Pred& pred, std::size_t grain = default_grain) {
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, n, grain), false,
-      [&](const tbb::blocked_range<std::size_t>& r, bool found) {
-        for (std::size_t i = r.begin(); i != r.end() && !found; ++i) found = pred(i);
+  return exact_reduce(
+      n, grain, false,
+      [&](std::size_t begin, std::size_t end, bool found) {
+        for (std::size_t i = begin; i != end && !found; ++i) found = pred(i);
         return found;
       },
       [](bool a, bool b) { return a || b; });
 }
+
+/// One T per thread that calls local(), each a copy of the exemplar when first asked for. For scratch
+/// and for integer counters summed afterwards (for_each, outside parallel loops) in any order.
+template <class T>
+class PerThread {
+ public:
+  explicit PerThread(const T& exemplar = T{}) : slots_(exemplar) {}
+  T& local() { return slots_.local(); }
+  /// Calls f(t) on every T made so far, in no particular order.
+  template <class F>
+  void for_each(const F& f) {
+    for (T& t : slots_) f(t);
+  }
+
+ private:
+#if DEM_PARALLEL_STD_THREAD
+  class Slots {
+   public:
+    explicit Slots(const T& exemplar) : exemplar_(exemplar) {}
+    T& local() {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      return slots_.try_emplace(std::this_thread::get_id(), exemplar_).first->second;
+    }
+    struct Iterator {
+      typename std::map<std::thread::id, T>::iterator at;
+      T& operator*() const { return at->second; }
+      Iterator& operator++() { return ++at, *this; }
+      bool operator!=(const Iterator& other) const { return at != other.at; }
+    };
+    Iterator begin() { return {slots_.begin()}; }
+    Iterator end() { return {slots_.end()}; }
+
+   private:
+    std::mutex mutex_;
+    T exemplar_;
+    std::map<std::thread::id, T> slots_;  // nodes never move: references from local() stay valid
+  };
+  Slots slots_;
+#else
+  tbb::enumerable_thread_specific<T> slots_;
+#endif
+};
 
 /// Exclusive prefix sum of counts into offsets (size n + 1); serial, the counts are integers.
 template <class Index>

@@ -3,9 +3,6 @@
 #include <cmath>
 #include <stdexcept>
 
-#include <tbb/info.h>
-#include <tbb/task_arena.h>
-
 #include "engine/checkpoint.h"
 #include "engine/doubling_work.h"
 #include "engine/exact_stepper.h"
@@ -39,8 +36,8 @@ World::World(const WorldConfig& config)
     if (!(p.radius > 0) || !std::isfinite(p.radius) || !p.position.allFinite() || !p.velocity.allFinite() ||
         !p.angular_velocity.allFinite())
       throw std::invalid_argument("every particle needs a finite radius > 0 and finite position and velocities");
-  threads_ = config_.threads > 0 ? config_.threads : tbb::info::default_concurrency();
-  arena_ = std::make_unique<tbb::task_arena>(threads_);
+  threads_ = config_.threads > 0 ? config_.threads : TaskArena::default_concurrency();
+  arena_ = std::make_unique<TaskArena>(threads_);
   gravity_ = config_.model.gravity;
   kernels_ = select_force_kernels(config_.model.separation, materials_.any_friction(),
                                   rolling_kind(materials_, config_.model.rolling_mode));

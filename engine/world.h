@@ -5,16 +5,15 @@
 //   -> skin check, rebuild candidate pairs if any particle moved more than skin/2
 //   -> update contacts (history inherited by key) -> contact forces -> gather per particle
 //   -> kick (v += h/2 a) -> finite-state check
-// All parallel loops run inside the World's own tbb::task_arena, so an embedding program keeps
-// control of its own threads. Results are bitwise identical for any thread count.
+// All parallel loops run inside the World's own TaskArena (engine/parallel.h: oneTBB, or std::threads
+// in the ThreadSanitizer build), so an embedding program keeps control of its own threads. Results
+// are bitwise identical for any thread count.
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <tbb/task_arena.h>
 
 #include "broadphase/candidate_pairs.h"
 #include "broadphase/grid.h"
@@ -26,6 +25,7 @@
 #include "engine/exact_stepper.h"
 #include "engine/forces.h"
 #include "engine/materials.h"
+#include "engine/parallel.h"
 #include "engine/scheduler.h"
 #include "engine/state.h"
 #include "engine/walls.h"
@@ -95,8 +95,9 @@ class World {
   Real sync_interval() const { return scheduler_.sync_interval(); }
   const Clock& clock() const { return clock_; }
   int thread_count() const { return threads_; }
-  /// The arena all engine loops run in (for observers and embedding programs).
-  tbb::task_arena& arena() const { return *arena_; }
+  /// The arena all engine loops run in (for embedding programs; in the oneTBB build, native() is the
+  /// tbb::task_arena, for observers).
+  TaskArena& arena() const { return *arena_; }
 
   const WorldConfig& config() const { return config_; }
   const State& state() const { return state_; }
@@ -226,7 +227,7 @@ class World {
 
   WorldConfig config_;
   int threads_ = 1;
-  std::unique_ptr<tbb::task_arena> arena_;
+  std::unique_ptr<TaskArena> arena_;
   State state_;
   MaterialTable materials_;
   Walls walls_;

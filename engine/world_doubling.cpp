@@ -416,7 +416,7 @@ void World::finish_round() {
   std::swap(state_.torque, d.next.torque);
   std::swap(state_.level, d.next.level);
   // Counters: integer sums, the same in any order.
-  for (DoublingCounters& local : d.counters) {
+  d.counters.for_each([&](DoublingCounters& local) {
     counters_.accepted_steps += local.accepted;
     counters_.rejected_steps += local.rejected;
     counters_.forced_steps += local.forced;
@@ -427,7 +427,7 @@ void World::finish_round() {
     if (histogram.size() < local.histogram.size()) histogram.resize(local.histogram.size(), 0);
     for (std::size_t k = 0; k < local.histogram.size(); ++k) histogram[k] += local.histogram[k];
     local = DoublingCounters{};
-  }
+  });
   if (config_.integrator.method == Method::exact) {
     // Contacts are found again from positions; the wall-contact histories of the accepted trials
     // become the World's, in key order. A particle in free flight touches no wall: it has none.

@@ -143,14 +143,15 @@ struct Json {
   double number = 0;
   std::string string;
   std::vector<Json> array;
-  std::vector<std::pair<std::string, Json>> object;
+  // An object's members: keys[i] names values[i] (not a vector of pairs: clang with libstdc++ wants
+  // pair<string, Json> complete inside Json).
+  std::vector<std::string> keys;
+  std::vector<Json> values;
 
-  bool has(const std::string& key) const {
-    return std::any_of(object.begin(), object.end(), [&](const auto& e) { return e.first == key; });
-  }
+  bool has(const std::string& key) const { return std::find(keys.begin(), keys.end(), key) != keys.end(); }
   const Json& operator[](const std::string& key) const {
-    for (const auto& e : object)
-      if (e.first == key) return e.second;
+    for (std::size_t i = 0; i < keys.size(); ++i)
+      if (keys[i] == key) return values[i];
     static const Json missing;
     return missing;
   }
@@ -212,7 +213,8 @@ class JsonReader {
       do {
         std::string key = string_literal();
         if (!eat(':')) ok = false;
-        v.object.emplace_back(std::move(key), value());
+        v.keys.push_back(std::move(key));
+        v.values.push_back(value());
       } while (ok && eat(','));
       if (!eat('}')) ok = false;
     } else if (c == '[') {

@@ -1,41 +1,20 @@
 // Results are bitwise identical for any thread count and any run (STYLE.md, deterministic
 // parallelism): the state hash after a run with grid rebuilds and contacts created and removed is the
-// same for 1, 2, 3 and 8 threads (8 oversubscribed through tbb::global_control) and for a repeat.
+// same for 1, 2, 3 and 8 threads (8 oversubscribed) and for a repeat; with either parallel backend
+// (tests/thread_support.h).
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <mutex>
-#include <set>
-#include <thread>
 #include <vector>
-
-#include <tbb/global_control.h>
-#include <tbb/task_scheduler_observer.h>
 
 #include "engine/world.h"
 #include "tests/test_scenes.h"
+#include "tests/thread_support.h"
 
 namespace dem {
 namespace {
 
-/// Records which OS threads enter the world's arena.
-class ThreadRecorder : public tbb::task_scheduler_observer {
- public:
-  explicit ThreadRecorder(tbb::task_arena& arena) : tbb::task_scheduler_observer(arena) { observe(true); }
-  ~ThreadRecorder() override { observe(false); }
-  void on_scheduler_entry(bool) override {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ids_.insert(std::this_thread::get_id());
-  }
-  std::size_t distinct() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return ids_.size();
-  }
-
- private:
-  std::mutex mutex_;
-  std::set<std::thread::id> ids_;
-};
+using test::ThreadRecorder;
 
 struct RunResult {
   std::uint64_t hash;
@@ -71,7 +50,7 @@ RunResult run(int threads, Method method = Method::verlet) {
 }
 
 TEST(Determinism, SameHashForOneTwoThreeAndEightThreadsAndRepeatedRuns) {
-  tbb::global_control allow_eight(tbb::global_control::max_allowed_parallelism, 8);
+  const test::AllowThreads allow_eight(8);
   const RunResult one = run(1);
   EXPECT_GE(one.rebuilds, 3u) << "the run must rebuild the grid at least twice after the first build";
   EXPECT_GT(one.created, 0u) << "contacts must be created during the run";
@@ -88,7 +67,7 @@ TEST(Determinism, SameHashForOneTwoThreeAndEightThreadsAndRepeatedRuns) {
 }
 
 TEST(Determinism, ExactStepperSameHashForOneTwoThreeAndEightThreads) {
-  tbb::global_control allow_eight(tbb::global_control::max_allowed_parallelism, 8);
+  const test::AllowThreads allow_eight(8);
   const RunResult one = run(1, Method::exact);
   EXPECT_GT(one.created, 0u);
   EXPECT_GT(one.removed, 0u);

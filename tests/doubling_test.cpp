@@ -34,20 +34,15 @@
 #include <cstdlib>
 #include <iterator>
 #include <limits>
-#include <mutex>
-#include <set>
 #include <string>
-#include <thread>
 #include <vector>
-
-#include <tbb/global_control.h>
-#include <tbb/task_scheduler_observer.h>
 
 #include "engine/config.h"
 #include "engine/world.h"
 #include "tests/contact_scenes.h"
 #include "tests/doubling_scenes.h"
 #include "tests/test_scenes.h"
+#include "tests/thread_support.h"
 
 namespace dem {
 namespace {
@@ -458,25 +453,6 @@ TEST(Doubling, IslandsAtDifferentLevelsThatTouchInARoundAreMergedAndMomentumIsCo
 // ---------------------------------------------------------------------------------------------
 // 4. Determinism under doubling
 
-/// Records which OS threads enter the world's arena.
-class ThreadRecorder : public tbb::task_scheduler_observer {
- public:
-  explicit ThreadRecorder(tbb::task_arena& arena) : tbb::task_scheduler_observer(arena) { observe(true); }
-  ~ThreadRecorder() override { observe(false); }
-  void on_scheduler_entry(bool) override {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ids_.insert(std::this_thread::get_id());
-  }
-  std::size_t distinct() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return ids_.size();
-  }
-
- private:
-  std::mutex mutex_;
-  std::set<std::thread::id> ids_;
-};
-
 // A bed of 50 polydisperse spheres with friction and rolling resistance, settled under the fixed
 // control in a box, then 25 more rain onto it from 3-6 cm. Settled once, shared by every run.
 WorldConfig rain_on_bed(int threads) {
@@ -554,7 +530,7 @@ RainRun rain(int threads) {
 }
 
 TEST(Doubling, SameHashForOneTwoThreeAndEightThreadsAndRepeatedRuns) {
-  tbb::global_control allow_eight(tbb::global_control::max_allowed_parallelism, 8);
+  const AllowThreads allow_eight(8);
   const RainRun one = rain(1);
   // The run exercises what doubling adds: mixed levels, contacts made and broken, candidate
   // rebuilds, and rounds redone.

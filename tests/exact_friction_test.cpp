@@ -6,8 +6,6 @@
 // slope under step doubling (PHYSICS.md 4): the oracle at two tolerances, restart bit for bit, and the
 // same hash for one and two threads.
 #include <gtest/gtest.h>
-#include <tbb/global_control.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -21,6 +19,7 @@
 #include "engine/exact_stepper.h"
 #include "engine/scene_loader.h"
 #include "engine/world.h"
+#include "tests/thread_support.h"
 
 namespace dem {
 namespace {
@@ -417,7 +416,7 @@ TEST(ExactFrictionDoubling, RestoredRunContinuesBitForBit) {
 }
 
 TEST(ExactFrictionDoubling, SameHashForOneAndTwoThreads) {
-  tbb::global_control allow_two(tbb::global_control::max_allowed_parallelism, 2);
+  const test::AllowThreads allow_two(2);
   std::uint64_t hash[2];
   RunCounters counters[2];
   for (const int threads : {1, 2}) {

@@ -13,13 +13,13 @@
 #include <random>
 
 #include <Eigen/Geometry>
-#include <tbb/global_control.h>
 
 #include "engine/input_error.h"
 #include "engine/scene_loader.h"
 #include "engine/walls.h"
 #include "engine/world.h"
 #include "tests/contact_scenes.h"
+#include "tests/thread_support.h"
 
 namespace dem {
 namespace {
@@ -220,7 +220,7 @@ TEST(MeshWall, BumpyMeshGivesOneStateForAnyThreadCount) {
     if (free) c.particles.push_back(test::particle(x, Vec3::Zero(), 0.02, 0.01));
   }
   ASSERT_GT(c.particles.size(), 150u);
-  tbb::global_control allow(tbb::global_control::max_allowed_parallelism, 3);  // oversubscribed on 2 cores
+  const test::AllowThreads allow(3);  // oversubscribed on 2 cores
   std::uint64_t hash = 0;
   std::size_t contacts = 0;
   for (const int threads : {1, 2, 3}) {
