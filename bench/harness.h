@@ -18,8 +18,8 @@
 // floating multiply-adds in registers, no engine code), cut into chunks that 1 or 2 threads take from
 // a shared counter, so that, like oneTBB's loops, a thread that is descheduled leaves its chunks to the
 // other. bench/regress divides every timing of a program by the median of the calibration with the
-// benchmark's thread count from the same run, so a machine that is uniformly slower (or busy with
-// other work) does not read as a regression.
+// benchmark's thread count from the same run, so a machine that is uniformly slower does not read as
+// a regression, and compares /2's real time with /1's CPU time to tell whether the 2 cores were free.
 #include <benchmark/benchmark.h>
 
 #include <atomic>
