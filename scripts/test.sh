@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The README's test command and CI's only command: installs what is missing, configures, builds and
 # runs every CI stage (warnings as errors, costly invariants checked; then 60 s of fuzzing the scene
-# loader with clang's libFuzzer and sanitizers, scripts/fuzz.sh), printing each stage's time.
+# loader with clang's libFuzzer and sanitizers, scripts/fuzz.sh; then the sanitizer builds,
+# scripts/sanitize.sh: ASan + UBSan on the `sanitize` tests, ThreadSanitizer with the std::thread
+# backend on the `tsan` tests), printing each stage's time.
 # Long validation (ctest label `long`) is skipped here: run `ctest --test-dir build-test -L long`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -31,3 +33,6 @@ stage "configure" cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebI
 stage "build" cmake --build "$build" -j "$jobs"
 stage "tests" ctest --test-dir "$build" -LE long --output-on-failure -j "$jobs" --timeout 300
 stage "fuzz scene loader (60 s)" bash scripts/fuzz.sh 60
+stage "sanitize (ASan+UBSan)" bash scripts/sanitize.sh address
+stage "tsan" bash scripts/sanitize.sh thread
+echo "== total: $SECONDS s"
