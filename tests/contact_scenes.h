@@ -227,6 +227,26 @@ inline Real omega_max_bound(const World& world) {
   return std::sqrt(*std::max_element(sum.begin(), sum.end()));
 }
 
+// Subtracts the centre-of-mass velocity, so the total momentum is zero (to round-off).
+inline void remove_total_momentum(WorldConfig& c) {
+  Vec3 momentum = Vec3::Zero();
+  Real mass = 0;
+  for (const ParticleConfig& p : c.particles) {
+    momentum += p.mass * p.velocity;
+    mass += p.mass;
+  }
+  for (ParticleConfig& p : c.particles) p.velocity -= momentum / mass;
+}
+
+// A box container centred on the origin.
+inline WallConfig box_container(const Vec3& half_extents) {
+  WallConfig box;
+  box.kind = WallKind::box;
+  box.inside = true;
+  box.half_extents = half_extents;
+  return box;
+}
+
 inline WorldConfig packing_config(Method method) {
   const int nx = 6, ny = 6;
   const Real r0 = 0.01, spacing = 2 * r0 * 0.99;  // about 1% overlap between neighbours
@@ -235,8 +255,6 @@ inline WorldConfig packing_config(Method method) {
   c.contacts[0].normal_stiffness = 1e4;
   std::mt19937_64 rng(20240611);
   std::uniform_real_distribution<Real> u(-1, 1);
-  Vec3 momentum = Vec3::Zero();
-  Real mass = 0;
   for (int i = 0; i < nx; ++i) {
     for (int j = 0; j < ny; ++j) {
       ParticleConfig p;
@@ -245,17 +263,11 @@ inline WorldConfig packing_config(Method method) {
       p.position = Vec3((i - 0.5 * (nx - 1)) * spacing + 0.01 * r0 * u(rng),
                         (j - 0.5 * (ny - 1)) * spacing + 0.01 * r0 * u(rng), 0);
       p.velocity = Vec3(u(rng), u(rng), 0) * 0.3;
-      momentum += p.mass * p.velocity;
-      mass += p.mass;
       c.particles.push_back(p);
     }
   }
-  for (ParticleConfig& p : c.particles) p.velocity -= momentum / mass;
-  WallConfig box;
-  box.kind = WallKind::box;
-  box.inside = true;
-  box.half_extents = Vec3(0.5 * nx * spacing, 0.5 * ny * spacing, 1.0);
-  c.walls.push_back(box);
+  remove_total_momentum(c);
+  c.walls.push_back(box_container(Vec3(0.5 * nx * spacing, 0.5 * ny * spacing, 1.0)));
   return c;
 }
 
@@ -276,8 +288,6 @@ inline WorldConfig persistent_packing_config(Method method) {
   c.contacts[0].normal_stiffness = 1e4;
   std::mt19937_64 rng(20261201);
   std::uniform_real_distribution<Real> u(-1, 1);
-  Vec3 momentum = Vec3::Zero();
-  Real mass = 0;
   for (int j = 0; j < ny; ++j) {
     const int count = j % 2 == 0 ? nx : nx - 1;  // odd rows sit in the grooves of the even ones
     for (int i = 0; i < count; ++i) {
@@ -286,17 +296,11 @@ inline WorldConfig persistent_packing_config(Method method) {
       p.mass = 1e-3 * (1 + 0.3 * u(rng));
       p.position = Vec3((i - 0.5 * (nx - 1) + (j % 2) * 0.5) * spacing, (j - 0.5 * (ny - 1)) * row, 0);
       p.velocity = Vec3(u(rng), u(rng), 0) * speed;
-      momentum += p.mass * p.velocity;
-      mass += p.mass;
       c.particles.push_back(p);
     }
   }
-  for (ParticleConfig& p : c.particles) p.velocity -= momentum / mass;
-  WallConfig box;
-  box.kind = WallKind::box;
-  box.inside = true;
-  box.half_extents = Vec3(0.5 * nx * spacing, 0.5 * (ny - 1) * row + 0.5 * spacing, 1.0);
-  c.walls.push_back(box);
+  remove_total_momentum(c);
+  c.walls.push_back(box_container(Vec3(0.5 * nx * spacing, 0.5 * (ny - 1) * row + 0.5 * spacing, 1.0)));
 
   WorldConfig settle = c;
   settle.contacts[0].normal_damping = {DampingKind::damping_ratio, 0.7};
