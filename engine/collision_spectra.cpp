@@ -32,8 +32,8 @@ int CollisionSpectra::bin_of(double energy) {
 double CollisionSpectra::bin_low(int b) { return lowest_energy * std::pow(10.0, static_cast<double>(b) / bins_per_decade); }
 
 void CollisionSpectra::record(Kind kind, const ContactHistory& history, Real work, Real elastic) {
-  // Whatever the normal spring still held when the contact ended is lost with it, as in the
-  // World's books (dissipated = work - elastic); the rest of the loss is tangential and rolling.
+  // As in the World's books: dissipated = work - elastic, the normal work including the step on
+  // which the contact parted (contacts.cpp, book_release); the rest of the loss is tangential and rolling.
   const double normal = history.normal_work - history.normal_elastic;
   const double tangential = (work - elastic) - normal;
   const double values[quantity_count] = {std::max(history.impact_energy, Real(0)), normal, tangential};

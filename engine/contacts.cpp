@@ -53,6 +53,47 @@ bool overlapping(const State& s, ParticleIndex a, ParticleIndex b) {
   return (s.position[a] - s.position[b]).squaredNorm() < reach * reach;
 }
 
+/// Books the step on which a contact parted, now that it has left the list: its normal spring gives
+/// back what it held (from delta_last to 0, as the onset is booked from 0: contact_law.h), and its
+/// dashpot, whose last force velocity Verlet still applies over that step, is booked by the
+/// trapezoid over the step, (F_n - k delta_last) (delta_now - delta_last) / 2. Under force_zero a
+/// clamped force holds no spring and exerts none. The tangential and rolling springs keep the old
+/// rule: what they hold is taken as given back.
+void book_release(Real normal_force, Real overlap_now, const LawConstants& law, Real overlap_last,
+                  ContactHistory& history, Real& work, Real& elastic) {
+  const Real spring = history.normal_elastic > 0 ? law.k_n * overlap_last : 0;
+  const Real release = 0.5 * (normal_force - spring) * (overlap_now - overlap_last) - history.normal_elastic;
+  work += release;
+  history.normal_work += release;
+  elastic -= history.normal_elastic;
+  history.normal_elastic = 0;
+}
+
+/// Books the release step of a pair contact that has just ended (book_release) and returns what the
+/// contact dissipated over its life [J].
+Real end_pair_contact(const State& s, PairContacts& c, std::uint32_t k) {
+  const ParticleIndex i = c.i[k], j = c.j[k];
+  const Vec3 d = s.position[i] - s.position[j];
+  const Real dist = d.norm();
+  const Vec3 n = dist > 0 ? Vec3(d / dist) : Vec3(Vec3::UnitX());
+  const Real overlap_now = s.radius[i] + s.radius[j] - dist;
+  book_release(c.force[k].dot(n), overlap_now, c.constants[k], c.overlap[k], c.history[k], c.work[k], c.elastic[k]);
+  return c.work[k] - c.elastic[k];
+}
+
+/// The same for a wall contact (the wall list's books are a difference of sums). The wall's
+/// geometry at a larger radius gives the (negative) overlap now: a feature touched at radius r is
+/// touched at any larger one (walls.h). A particle more than its radius clear of the feature after
+/// one step keeps the old rule.
+void end_wall_contact(const State& s, const Walls& walls, WallContacts& c, std::size_t k) {
+  const ParticleIndex p = c.particle[k];
+  const Real r = s.radius[p];
+  WallTouch touch;
+  if (!walls.touch(c.wall[k], c.feature[k], s.position[p], 2 * r, touch)) return;
+  book_release(c.force[k].dot(touch.normal), touch.overlap - r, c.constants[k], c.overlap[k], c.history[k],
+               c.work[k], c.elastic[k]);
+}
+
 /// Index of `key` in the ascending `keys`, or -1.
 std::ptrdiff_t find_key(const std::vector<std::uint64_t>& keys, std::uint64_t key) {
   const auto it = std::lower_bound(keys.begin(), keys.end(), key);
@@ -103,10 +144,7 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
     const std::uint32_t old_end = contacts.row_start[a + 1];
     Real ended = 0;
     for (std::uint32_t k = fresh.row_start[a]; k < fresh.row_start[a + 1]; ++k) {
-      while (old < old_end && contacts.key[old] < fresh.key[k]) {
-        ended += contacts.work[old] - contacts.elastic[old];
-        ++old;
-      }
+      while (old < old_end && contacts.key[old] < fresh.key[k]) ended += end_pair_contact(s, contacts, old++);
       if (old < old_end && contacts.key[old] == fresh.key[k]) {
         fresh.constants[k] = contacts.constants[old];
         fresh.history[k] = contacts.history[old];
@@ -127,7 +165,7 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
       fresh.overlap[k] = 0;
       fresh.force[k].setZero();
     }
-    for (; old < old_end; ++old) ended += contacts.work[old] - contacts.elastic[old];
+    for (; old < old_end; ++old) ended += end_pair_contact(s, contacts, old);
     work.row_ended[a] = ended;
   });
   const Real ended = block_sum<Real>(n, [&](std::size_t a) { return work.row_ended[a]; });
@@ -182,6 +220,9 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
     }
   });
   DEM_VALIDATE(std::is_sorted(fresh.key.begin(), fresh.key.end()));
+  parallel_for(contacts.size(), [&](std::size_t k) {
+    if (find_key(fresh.key, contacts.key[k]) < 0) end_wall_contact(s, walls, contacts, k);
+  });
   const Real ended = live_dissipation(contacts.work, contacts.elastic) - live_dissipation(fresh.work, fresh.elastic);
   std::swap(contacts, fresh);
   return ended;

@@ -33,6 +33,7 @@ void pair_forces(const State& s, PairContacts& c, Real h) {
     kin.tangential_velocity = u + kin.overlap_rate * n;
     kin.rolling_velocity = w_rel;
     ContactHistory& history = c.history[k];
+    kin.onset = history.impact_energy < 0;
     const Real inv_m = s.inv_mass[i] + s.inv_mass[j];  // two fixed particles: no impact energy
     if (history.impact_energy < 0) history.impact_energy = inv_m > 0 ? 0.5 * kin.overlap_rate * kin.overlap_rate / inv_m : 0;
     const ContactResponse r = Law::evaluate(c.constants[k], kin, history, h);
@@ -84,6 +85,7 @@ void wall_forces(const State& s, const Walls& walls, WallContacts& c, Real h) {
     kin.tangential_velocity = u + kin.overlap_rate * n;
     kin.rolling_velocity = w_rel;
     ContactHistory& history = c.history[k];
+    kin.onset = history.impact_energy < 0;
     if (history.impact_energy < 0) history.impact_energy = 0.5 * kin.overlap_rate * kin.overlap_rate / s.inv_mass[p];
     const ContactResponse r = Law::evaluate(c.constants[k], kin, history, h);
     history.normal_work += h * r.normal_power;

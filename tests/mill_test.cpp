@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -122,6 +123,8 @@ TEST(Mill, DriveWorkBalancesDissipationAndEnergyChange) {
   const Real lost = run.world->dissipated_energy() - lost0;
   const Real change = e1.total() - e0.total();
   ASSERT_GT(work, 0);
+  std::printf("drive work %.6g J: balance residual %.3g of it, spectra residual %.3g\n", work,
+              (work - (lost + change)) / work, (spectra_total(*run.world) - spectra0 - (work - change)) / work);
   EXPECT_LT(std::abs(work - (lost + change)), 0.02 * work)
       << "drive work " << work << " J, dissipated " << lost << " J, energy change " << change << " J";
   const Real spectra = spectra_total(*run.world) - spectra0;
