@@ -165,6 +165,7 @@ StepStatus World::advance_sync_interval() {
     // the physics).
     if (walls_move_ && config_.integrator.method == Method::verlet) wall_work_ += h * wall_power(walls_, wall_contacts_);
     finite = state_is_finite();
+    watch_step(h);
   });
   const std::uint64_t n = state_.size();
   counters_.sync_intervals += 1;
@@ -239,17 +240,20 @@ World::Culprit World::fastest_particle() const {
 
 World::Culprit World::deepest_overlap() const {
   Culprit c;
-  for (std::size_t k = 0; k < pairs_.size(); ++k) {
-    const ParticleIndex i = pairs_.i[k], j = pairs_.j[k];
-    const Real ratio = pairs_.overlap[k] / std::min(state_.radius[i], state_.radius[j]);
-    if (ratio > c.value) c = {state_.id[i], state_.id[j], ratio};
-  }
-  for (std::size_t k = 0; k < wall_contacts_.size(); ++k) {
-    const ParticleIndex p = wall_contacts_.particle[k];
-    const Real ratio = wall_contacts_.overlap[k] / state_.radius[p];
-    if (ratio > c.value) c = {state_.id[p], state_.id[p], ratio};
-  }
+  arena_->execute([&] { c = deepest_contact(state_, pairs_, wall_contacts_); });
+  c.time = time();
   return c;
+}
+
+void World::watch_step(Real h) {
+  Culprit deepest = deepest_contact(state_, pairs_, wall_contacts_);
+  deepest.time = time();
+  deepest_seen_ = Culprit::worse(deepest_seen_, deepest);
+  if (config_.integrator.method == Method::verlet && config_.integrator.control == Control::fixed) {
+    Culprit travel = longest_step_travel(state_, h);
+    travel.time = time();
+    travel_seen_ = Culprit::worse(travel_seen_, travel);
+  }
 }
 
 EnergyBalance World::energy_balance() const {

@@ -28,6 +28,7 @@
 #include "engine/parallel.h"
 #include "engine/scheduler.h"
 #include "engine/state.h"
+#include "engine/step_watch.h"
 #include "engine/walls.h"
 
 namespace dem {
@@ -135,16 +136,19 @@ class World {
   /// The bytes save_checkpoint would write (to keep the last good state in memory).
   std::string checkpoint_bytes(std::uint64_t scene_hash) const;
 
-  /// For divergence messages: a particle and a number describing it.
-  struct Culprit {
-    ParticleId particle = 0;
-    ParticleId partner = 0;  // second particle of a pair (deepest overlap), else equal to particle
-    Real value = 0;
-  };
+  /// For divergence messages: a particle (and partner) and a number describing it (step_watch.h).
+  using Culprit = Worst;
   /// The particle with the largest speed [m/s].
   Culprit fastest_particle() const;
-  /// The deepest pair or wall overlap as a fraction of the smaller radius involved.
+  /// The deepest pair or wall overlap now, as a fraction of the smaller radius involved.
   Culprit deepest_overlap() const;
+  /// The deepest overlap since the start (or the resume), with the time it was seen: after every
+  /// step under the fixed control, at sync times under doubling.
+  const Culprit& deepest_overlap_seen() const { return deepest_seen_; }
+  /// The largest h |v| / R after any velocity Verlet step of the fixed control since the start: how
+  /// many radii a particle's next step would carry it. Beyond 1 a contact can be stepped over (the
+  /// exact stepper and step doubling find contacts on the path; for them this stays 0).
+  const Culprit& longest_step_travel_seen() const { return travel_seen_; }
 
   /// Heap bytes held by particle, contact and broadphase arrays (capacities, scratch included).
   std::size_t memory_bytes() const;
@@ -224,6 +228,7 @@ class World {
   bool find_conflicts();
   void finish_round();
   bool state_is_finite() const;
+  void watch_step(Real h);
 
   WorldConfig config_;
   int threads_ = 1;
@@ -259,6 +264,8 @@ class World {
   // Embedding (world_embedding.cpp).
   void refresh_after_population_change();
   Real removed_energy_ = 0;     // kinetic, rotational and spring energy of removed particles [J]
+  Culprit deepest_seen_;        // step_watch.h
+  Culprit travel_seen_;
 };
 
 }  // namespace dem

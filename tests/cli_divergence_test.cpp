@@ -150,4 +150,40 @@ TEST(CliDivergence, DivergedRunLeavesOnlyTheLastGoodCheckpoint) {
   if (!HasFailure()) fs::remove_all(base);
 }
 
+// An impact too fast for the stiffness (head_on with k = 100 N/m: the linear law's overlap would be
+// v / omega0 = 1.4 R) goes deeper than the law describes between two result rows; the overlap is
+// watched at every step, so the run stops with exit code 3 and names the pair, the depth and what
+// to change, keeping the last good state.
+TEST(CliDivergence, AnImpactDeeperThanHalfTheRadiusStopsTheRun) {
+  const fs::path base = scratch("deep");
+  const std::string soft = "--set contacts[0].normal_stiffness=100 --until 0.2 --set output.interval=0.05";
+  EXPECT_EQ(run_scene("scenes/head_on.toml", soft, base / "deep"), 3);
+  const std::string err = read(base / "deep.err");
+  EXPECT_NE(err.find("particles 0 and 1 overlapped by"), std::string::npos) << err;
+  EXPECT_NE(err.find("normal_stiffness"), std::string::npos) << "the message names the setting to change: " << err;
+  EXPECT_EQ(checkpoints_in(base / "deep").size(), 1u);
+  // Stiff enough (the shipped k = 1e5 N/m: 0.045 R), the same run is sound.
+  EXPECT_EQ(run_scene("scenes/head_on.toml", "--until 0.2 --set output.interval=0.05", base / "stiff"), 0)
+      << read(base / "stiff.err");
+  if (!HasFailure()) fs::remove_all(base);
+}
+
+// A fixed Verlet step that carries a particle further than its radius can step over a contact: the
+// run warns, naming the particle, the travel per step and a step that would not.
+TEST(CliDivergence, AStepLongerThanTheParticleIsWarnedOf) {
+  const fs::path base = scratch("travel");
+  // head_on with the spheres flying apart at 0.5 m/s, R = 5 cm: dt = 0.2 s carries each 2 radii per step.
+  const std::string apart = "--set particles[0].velocity=[-0.5,0,0] --set particles[1].velocity=[0.5,0,0] ";
+  EXPECT_EQ(run_scene("scenes/head_on.toml", apart + "--set integrator.dt=0.2 --until 1 --set output.interval=0.2", base / "long"), 0);
+  const std::string err = read(base / "long.err");
+  EXPECT_NE(err.find("warning: particle 0 moves 2 of its radii per step"), std::string::npos) << err;
+  EXPECT_NE(err.find("integrator.dt below 0.1 s"), std::string::npos) << err;
+  const std::string summary = read(base / "long" / "summary.json");
+  EXPECT_NE(summary.find("\"longest_step_travel\": 2"), std::string::npos) << summary;
+  // At the scene's own step (5e-6 m per step, 1e-4 radii) there is no warning.
+  EXPECT_EQ(run_scene("scenes/head_on.toml", "--until 0.001", base / "short"), 0);
+  EXPECT_EQ(read(base / "short.err").find("warning: particle"), std::string::npos) << read(base / "short.err");
+  if (!HasFailure()) fs::remove_all(base);
+}
+
 }  // namespace

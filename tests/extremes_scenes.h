@@ -7,8 +7,10 @@
 //  - a state reported ok must be finite, every position and velocity, checked here independently
 //    of the World's own check;
 //  - the energy books (World::energy_balance) flag growth beyond kGrowthLimit of the energy in play,
-//    and World::deepest_overlap flags an overlap beyond kOverlapLimit of the smaller radius: the
-//    limits at which `dem run` stops a run (engine/cli/energy_audit.h);
+//    and World::deepest_overlap_seen flags an overlap beyond kOverlapLimit of the smaller radius at
+//    any step since the start: the limits at which `dem run` stops a run (engine/cli/energy_audit.h);
+//  - World::longest_step_travel_seen flags a fixed Verlet step longer than kTravelLimit radii, which
+//    `dem run` warns of (a contact can be stepped over);
 //  - independently of the books, the energy itself is held against the conservation law of the
 //    scenes here (no moving walls, no body force): E(t) <= E0. A rise beyond kGrowthLimit E0 that
 //    the books do not flag is growth that passed silently.
@@ -41,6 +43,7 @@ namespace dem::test {
 
 constexpr Real kGrowthLimit = 0.5;   // energy from nowhere, as a fraction of the energy in play
 constexpr Real kOverlapLimit = 0.5;  // overlap, as a fraction of the smaller radius
+constexpr Real kTravelLimit = 1.0;  // a fixed Verlet step, in radii of the particle
 constexpr Real kEps = std::numeric_limits<Real>::epsilon();
 
 // Error constants of velocity Verlet on one collision (contact_physics_test.cpp derives them):
@@ -54,7 +57,8 @@ enum class Outcome {
   bounded,          ///< every interval ok, energy within its law, nothing flagged
   stopped,          ///< advance_sync_interval returned StepStatus::non_finite
   flagged_energy,   ///< the energy books flagged growth (the run stops there)
-  flagged_overlap,  ///< deepest_overlap flagged an overlap the linear law does not describe
+  flagged_overlap,  ///< deepest_overlap_seen flagged an overlap the linear law does not describe
+  flagged_travel,   ///< longest_step_travel_seen flagged a step that can step over a contact
 };
 
 inline const char* outcome_name(Outcome o) {
@@ -63,6 +67,7 @@ inline const char* outcome_name(Outcome o) {
     case Outcome::stopped: return "stopped: non_finite";
     case Outcome::flagged_energy: return "flagged: energy books show growth";
     case Outcome::flagged_overlap: return "flagged: overlap > 0.5 R";
+    case Outcome::flagged_travel: return "flagged: a step longer than R";
   }
   return "?";
 }
@@ -75,7 +80,8 @@ struct AuditResult {
   Real max_rise = 0;        // max (E - E0) / E0 over the ok intervals
   Real max_change = 0;      // max |E - E0| / E0 over the ok intervals
   Real max_book_error = 0;  // max energy_balance().error / scale
-  Real max_overlap = 0;     // max deepest_overlap().value seen at a sync time (fraction of the radius)
+  Real max_overlap = 0;     // deepest_overlap_seen().value: at any step (fraction of the radius)
+  Real max_travel = 0;      // longest_step_travel_seen().value: h |v| / R of a fixed Verlet step
   Real e0 = 0;              // [J]
 };
 
@@ -100,6 +106,7 @@ inline AuditResult run_audited(World& w, long intervals, bool stop_on_flag = tru
       return r;
     }
     ++r.intervals;
+    r.max_travel = w.longest_step_travel_seen().value;
     if (!state_finite(w)) {
       ++r.non_finite_ok;
       return r;
@@ -110,7 +117,7 @@ inline AuditResult run_audited(World& w, long intervals, bool stop_on_flag = tru
     r.max_rise = std::max(r.max_rise, rise);
     r.max_change = std::max(r.max_change, std::abs(rise));
     if (std::isfinite(b.error / b.scale)) r.max_book_error = std::max(r.max_book_error, b.error / b.scale);
-    const Real overlap = w.deepest_overlap().value;
+    const Real overlap = w.deepest_overlap_seen().value;
     r.max_overlap = std::max(r.max_overlap, overlap);
     if (!(rise <= kGrowthLimit) && !energy_flag) ++r.silent_growth;
     if (energy_flag && !flagged) {
@@ -121,6 +128,10 @@ inline AuditResult run_audited(World& w, long intervals, bool stop_on_flag = tru
     if (overlap > kOverlapLimit && !flagged) {
       flagged = true;
       r.outcome = Outcome::flagged_overlap;
+    }
+    if (r.max_travel > kTravelLimit && !flagged) {
+      flagged = true;
+      r.outcome = Outcome::flagged_travel;
     }
   }
   return r;

@@ -118,7 +118,9 @@ TEST(Mill, DriveWorkBalancesDissipationAndEnergyChange) {
   run.run_until(start + 2 * run.period());
   const Energies e1 = run.world->energies();
   // Drive work is integrated every step from the walls' power; the dissipation is each contact's own
-  // books; the spectra sum their events one by one.
+  // books; the spectra sum their events one by one. The books hold the contact law's losses along the
+  // computed path, so the residual is velocity Verlet's own energy error: second order in the step
+  // (1.3% of the drive work here at omega0 dt = 0.32, 0.36% at half the step).
   const Real work = run.world->wall_work() - work0;
   const Real lost = run.world->dissipated_energy() - lost0;
   const Real change = e1.total() - e0.total();

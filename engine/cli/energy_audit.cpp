@@ -6,7 +6,7 @@
 namespace dem::cli {
 
 std::string EnergyAudit::check(const World& world) const {
-  char text[400];
+  char text[600];
   const Energies now = world.energies();
   const EnergyBalance whole = world.energy_balance();
   const Real dissipated = world.dissipated_energy(), wall_work = world.wall_work();
@@ -36,13 +36,35 @@ std::string EnergyAudit::check(const World& world) const {
                   whole.error, 100 * whole.error / whole.scale, whole.scale, c.particle, c.value);
     return text;
   }
-  const World::Culprit o = world.deepest_overlap();
+  // The deepest overlap of any step since the start, not only now: an impact too fast for the
+  // stiffness can go deep and pass through between two audits.
+  const World::Culprit& o = world.deepest_overlap_seen();
   if (o.value > overlap_limit) {
-    std::snprintf(text, sizeof text, "particles %u and %u overlap by %.0f%% of the smaller radius (limit %.0f%%)",
-                  o.particle, o.partner, 100 * o.value, 100 * overlap_limit);
+    if (o.particle == o.partner)
+      std::snprintf(text, sizeof text, "particle %u overlapped a wall by %.0f%% of its radius at t = %.9g s (limit %.0f%%; an impact "
+                  "this deep is outside the linear contact law: raise the contact's normal_stiffness or lower the impact speed)",
+                    o.particle, 100 * o.value, o.time, 100 * overlap_limit);
+    else
+      std::snprintf(text, sizeof text,
+                    "particles %u and %u overlapped by %.0f%% of the smaller radius at t = %.9g s (limit %.0f%%; an "
+                    "impact this deep is outside the linear contact law: raise the contact's normal_stiffness or lower "
+                    "the impact speed)",
+                    o.particle, o.partner, 100 * o.value, o.time, 100 * overlap_limit);
     return text;
   }
   return "";
+}
+
+std::string step_travel_warning(const World& world) {
+  const World::Culprit& t = world.longest_step_travel_seen();
+  if (!(t.value > step_travel_limit)) return "";
+  char text[600];
+  std::snprintf(text, sizeof text,
+                "particle %u moves %.3g of its radii per step at t = %.9g s: a step that long can carry it through a "
+                "wall or another particle without a contact being seen. Reduce integrator.dt below %.3g s, or use "
+                "integrator.control = \"doubling\" or integrator.method = \"exact\", which find contacts on the path",
+                t.particle, t.value, t.time, world.config().integrator.dt * step_travel_limit / t.value);
+  return text;
 }
 
 void EnergyAudit::accept(const World& world) {

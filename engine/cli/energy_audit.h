@@ -1,6 +1,7 @@
 #pragma once
 // The divergence audit of `dem run` and `dem trade`: a state is sound when energy has not appeared
-// from nowhere and no overlap is beyond what the linear contact law describes.
+// from nowhere and no overlap, at any step since the start, is beyond what the linear contact law
+// describes.
 //
 // Energy is audited per window, from the last good state to now: the balance error of
 // World::energy_balance() may not grow by more than a fraction of the energy in play in that window.
@@ -18,6 +19,13 @@ namespace dem::cli {
 inline constexpr Real energy_growth_limit = 0.5;
 /// An overlap beyond this fraction of the smaller radius is not a contact the linear law describes.
 inline constexpr Real overlap_limit = 0.5;
+/// A fixed Verlet step carrying a particle further than its radius can step over a contact.
+inline constexpr Real step_travel_limit = 1.0;
+
+/// Empty, or a warning naming the particle whose steps have been longer than step_travel_limit of
+/// its radius, when, and the settings to change (World::longest_step_travel_seen). A warning, not a
+/// stop: a particle flying far from everything may take long steps safely.
+std::string step_travel_warning(const World& world);
 
 class EnergyAudit {
  public:

@@ -325,6 +325,7 @@ int run_command(const RunOptions& options) {
   DivergenceGuard guard(world, scene.physics_hash);
   std::string divergence;  // why the run diverged; empty while it has not
   std::string stop_reason = "end time reached";
+  bool travel_warned = false;
   while (world.time() < scene.run.until) {
     if (world.advance_sync_interval() != StepStatus::ok) {
       const World::Culprit c = world.fastest_particle();
@@ -332,6 +333,12 @@ int run_command(const RunOptions& options) {
       break;
     }
     const Real t = world.time();
+    if (!travel_warned) {
+      if (const std::string warning = step_travel_warning(world); !warning.empty()) {
+        std::fprintf(stderr, "dem: warning: %s.\n", warning.c_str());
+        travel_warned = true;
+      }
+    }
     if (mill) mill->on_sync(world);
     // Translational only: a particle spinning about its contact normal (nothing resists that spin)
     // does not move and must not keep a settled bed from being written.
@@ -420,12 +427,24 @@ int run_command(const RunOptions& options) {
       .add("flags", DEM_COMPILE_FLAGS)
       .add("threads", world.thread_count())
       .add("seeds", seeds);
+  // What the steps came closest to getting wrong (step_watch.h): the deepest overlap of any step and
+  // the longest fixed Verlet step in radii travelled.
+  JsonObject watch;
+  const World::Culprit &deepest = world.deepest_overlap_seen(), &travel = world.longest_step_travel_seen();
+  watch.add("deepest_overlap", deepest.value)
+      .add("deepest_overlap_particles", std::vector<double>{static_cast<double>(deepest.particle),
+                                                             static_cast<double>(deepest.partner)})
+      .add("deepest_overlap_time", deepest.time)
+      .add("longest_step_travel", travel.value)
+      .add("longest_step_travel_particle", static_cast<std::uint64_t>(travel.particle))
+      .add("longest_step_travel_time", travel.time);
   JsonObject summary;
   summary.add("status", divergence.empty() ? "ok" : "diverged")
       .add("stop_reason", divergence.empty() ? stop_reason : divergence)
       .add("time", world.time())
       .add("settings", settings)
       .add("counters", counters)
+      .add("watch", watch)
       .add("wall_time", wall_seconds)
       .add("particle_steps_per_second", static_cast<double>(c.particle_steps) / std::max(wall_seconds, 1e-9))
       .add("start", start_energy)
@@ -451,7 +470,7 @@ int run_command(const RunOptions& options) {
     if (!last_checkpoint.empty() && last_checkpoint != good) std::filesystem::remove(last_checkpoint);
     write_file_atomically(good, guard.last_good_checkpoint());
     std::fprintf(stderr,
-                 "dem: the run diverged at t = %.9g s: %s. The step is unstable: reduce integrator.dt "
+                 "dem: the run diverged at t = %.9g s: %s. If the step is beyond the stability limit, reduce integrator.dt "
                  "(`dem check` prints the stability limit of each contact) or use integrator.method = \"exact\". "
                  "The last good state (t = %.9g s) is in %s.\n",
                  world.time(), divergence.c_str(), guard.last_good_time(), good.string().c_str());

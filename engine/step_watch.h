@@ -1,0 +1,31 @@
+#pragma once
+// What a step can get wrong without producing a NaN, watched after every fixed step (reliability,
+// PHYSICS.md 8): a contact deeper than the linear law describes, and a particle whose next step would
+// carry it further than its own radius, so that it could step over a wall or another particle
+// without any contact being seen (tunnelling). The World keeps the worst of each since the start;
+// the divergence guard (engine/cli/energy_audit.h) stops a run on them.
+// Threading: both are parallel max-reductions whose combine is exact and order-free (ties go to the
+// smaller ids), so the answer is the same for any thread count.
+#include "engine/contacts.h"
+#include "engine/state.h"
+
+namespace dem {
+
+/// A particle (and for a pair, its partner) and a ratio describing it, with the time it was seen.
+struct Worst {
+  ParticleId particle = 0;
+  ParticleId partner = 0;  // the second particle of a pair, else equal to particle
+  Real value = 0;
+  Real time = 0;  // [s]
+  /// The larger value wins (a NaN over any number); equal values go to the smaller ids.
+  static Worst worse(const Worst& a, const Worst& b);
+};
+
+/// The deepest pair or wall contact as a fraction of the smaller radius involved.
+Worst deepest_contact(const State& s, const PairContacts& pairs, const WallContacts& walls);
+
+/// The largest h |v| / R over the particles: how many of its radii a particle's next step of h
+/// carries it at its present velocity.
+Worst longest_step_travel(const State& s, Real h);
+
+}  // namespace dem
