@@ -115,7 +115,48 @@ void place_at_release(const NormalOscillator& o, Separation separation, NormalSt
   }
 }
 
+/// Records in `watch` the deepest overlap of a pushing segment of the flow from s over tau.
+void watch_segment(OverlapWatch* watch, const NormalOscillator& o, Real a, const NormalState& s, Real tau,
+                   const NormalState& end) {
+  if (!watch) return;
+  Real deepest = std::max(s.delta, end.delta);
+  if (o.omega0 > 0) {
+    // The shifted oscillator's energy bounds the overlap the segment can reach; only when that bound
+    // is of interest is the peak looked for.
+    const Real rest = a / (o.omega0 * o.omega0);
+    const Real reach = rest + std::hypot(s.delta - rest, s.rate / o.omega0);
+    if (reach > watch->depth_of_interest && reach > deepest) deepest = std::max(deepest, peak_overlap(o, a, s, tau));
+  }
+  watch->deepest = std::max(watch->deepest, deepest);
+}
+
 }  // namespace
+
+Real peak_overlap(const NormalOscillator& o, Real a, NormalState s, Real tau) {
+  Real deepest = std::max(s.delta, oscillate(o, s, a, tau).delta);
+  // delta' solves the homogeneous equation: its zeros are at least pi / omega0 apart, so samples a
+  // quarter period apart never hold two zeros in one interval. The first fall through 0 is the
+  // deepest maximum; 64 intervals cover 16 periods, past the first maximum of any impact.
+  constexpr int samples = 64;
+  const Real spacing = o.omega0 > 0 ? std::min(tau / samples, 0.5 * pi / o.omega0) : tau / samples;
+  if (!(spacing > 0)) return deepest;
+  Real t0 = 0, rate0 = s.rate;
+  for (int k = 1; k <= samples && t0 < tau; ++k) {
+    const Real t1 = std::min(tau, k * spacing);
+    const Real rate1 = oscillate(o, s, a, t1).rate;
+    if (rate0 > 0 && rate1 <= 0) {
+      Real lo = t0, hi = t1;
+      for (int i = 0; i < 60; ++i) {
+        const Real mid = 0.5 * (lo + hi);
+        (oscillate(o, s, a, mid).rate > 0 ? lo : hi) = mid;
+      }
+      return std::max(deepest, oscillate(o, s, a, 0.5 * (lo + hi)).delta);
+    }
+    t0 = t1;
+    rate0 = rate1;
+  }
+  return deepest;
+}
 
 bool pushes(const NormalOscillator& o, Separation separation, const NormalState& s) {
   if (s.delta <= 0) return false;
@@ -123,7 +164,7 @@ bool pushes(const NormalOscillator& o, Separation separation, const NormalState&
 }
 
 NormalState advance_normal(const NormalOscillator& o, Separation separation, Real a, NormalState s, Real tau,
-                           int* events, const PropagatorCoefficients* whole_step) {
+                           int* events, const PropagatorCoefficients* whole_step, OverlapWatch* watch) {
   bool in_contact = pushes(o, separation, s);
   if (whole_step && in_contact && tau * o.omega0 <= 0.5 * pi) {
     // The slope of the pushing quantity solves the homogeneous equation, so its zeros are pi/omega_d
@@ -132,7 +173,10 @@ NormalState advance_normal(const NormalOscillator& o, Separation separation, Rea
     // at the start and rose at the end; otherwise no release can hide inside.
     const NormalState end = apply(*whole_step, s, a);
     const bool dipped = push_slope(o, separation, a, s) < 0 && push_slope(o, separation, a, end) > 0;
-    if (pushes(o, separation, end) && !dipped) return end;
+    if (pushes(o, separation, end) && !dipped) {
+      watch_segment(watch, o, a, s, tau, end);
+      return end;
+    }
   }
   Real left = tau;
   // Each pass ends at an event or at the end of the step, so one step holds any number of bounces.
@@ -149,8 +193,14 @@ NormalState advance_normal(const NormalOscillator& o, Separation separation, Rea
       const Real release = separation == Separation::force_zero
                                ? force_zero_time(o.omega0, o.beta, s.delta, s.rate, a)
                                : overlap_zero_time(o.omega0, o.beta, s.delta, s.rate, a);
-      if (!(release < left)) return oscillate(o, s, a, left);
-      s = oscillate(o, s, a, release);
+      if (!(release < left)) {
+        const NormalState end = oscillate(o, s, a, left);
+        watch_segment(watch, o, a, s, left, end);
+        return end;
+      }
+      const NormalState end = oscillate(o, s, a, release);
+      watch_segment(watch, o, a, s, release, end);
+      s = end;
       left -= release;
       place_at_release(o, separation, s);
     } else {
@@ -164,7 +214,10 @@ NormalState advance_normal(const NormalOscillator& o, Separation separation, Rea
     if (events) ++*events;
     stalled = left < left_before * (1 - no_progress) ? 0 : stalled + 1;
   }
-  return in_contact ? oscillate(o, s, a, left) : free_flight(s, a, left);
+  if (!in_contact) return free_flight(s, a, left);
+  const NormalState end = oscillate(o, s, a, left);
+  watch_segment(watch, o, a, s, left, end);
+  return end;
 }
 
 }  // namespace dem

@@ -33,6 +33,21 @@ bool pushes(const NormalOscillator& o, Separation separation, const NormalState&
 /// and rise at the end, no release can lie inside: the coefficients give the end state and the
 /// release search is skipped.
 NormalState advance_normal(const NormalOscillator& o, Separation separation, Real a, NormalState s, Real tau,
-                           int* events = nullptr, const PropagatorCoefficients* whole_step = nullptr);
+                           int* events = nullptr, const PropagatorCoefficients* whole_step = nullptr,
+                           struct OverlapWatch* watch = nullptr);
+
+/// The deepest overlap a flow reaches inside its step, for the divergence watch (PHYSICS.md 8: flag
+/// an overlap the linear law does not describe, even when a whole impact fits in one step). Cheap
+/// below `depth_of_interest`: a contact whose oscillator energy cannot carry it deeper reports the
+/// overlap at its ends; above, the true peak inside the step.
+struct OverlapWatch {
+  Real depth_of_interest = 0;  // [m]
+  Real deepest = 0;            // out: the largest overlap seen, max over calls [m]
+};
+
+/// Largest overlap on the contact flow from s over [0, tau] (the contact pushing throughout): the
+/// first maximum of delta(t), where delta' falls through 0, or an end. The shifted oscillator's
+/// energy (delta - a / omega0^2)^2 + (delta' / omega0)^2 never grows, so no later maximum is deeper.
+Real peak_overlap(const NormalOscillator& o, Real a, NormalState s, Real tau);
 
 }  // namespace dem

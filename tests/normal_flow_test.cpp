@@ -247,5 +247,47 @@ TEST(NormalFlow, ForceOnsetFromResidualOverlapHoldsTheContact) {
   }
 }
 
+/// The deepest overlap of an impact at speed v without forcing (delta(t) from 0 with delta'(0) = v),
+/// in closed form: the time where delta' = 0 and delta there, per damping regime.
+Real impact_peak(Real omega0, Real zeta, Real v) {
+  if (zeta < 1) {
+    const Real root = std::sqrt(1 - zeta * zeta), wd = omega0 * root;
+    const Real t = std::atan2(root, zeta) / wd;  // tan(wd t) = wd / beta
+    return v / wd * std::exp(-zeta * omega0 * t) * std::sin(wd * t);
+  }
+  if (zeta == 1) return v / (omega0 * std::exp(1.0));  // t = 1 / omega0: v t e^(-omega0 t)
+  const Real root = std::sqrt(zeta * zeta - 1), r1 = omega0 * (-zeta + root), r2 = omega0 * (-zeta - root);
+  const Real t = std::log(r2 / r1) / (r1 - r2);
+  return v / (r1 - r2) * (std::exp(r1 * t) - std::exp(r2 * t));
+}
+
+TEST(NormalFlow, PeakOverlapOfAnImpactMatchesTheClosedForm) {
+  // The watch of the deepest overlap (PHYSICS.md 8) inside a step that holds the whole impact and
+  // more (omega0 tau = 10): the first maximum of delta, in every damping regime.
+  const Real v = 1;
+  for (Real zeta : {0.0, 0.3, 1.0 - 1e-8, 1.0, 1.0 + 1e-8, 3.0, 1e3}) {
+    SCOPED_TRACE(::testing::Message() << "zeta " << zeta);
+    const NormalOscillator o{kOmega0, zeta * kOmega0};
+    const Real expected = impact_peak(kOmega0, zeta, v);
+    EXPECT_NEAR(peak_overlap(o, 0, {0, v}, 10 / kOmega0), expected, 1e-9 * expected);
+    // Through advance_normal, from just before the onset: found when it is of interest only.
+    OverlapWatch watch{0.5 * expected, 0};
+    advance_normal(o, Separation::overlap, 0, {-1e-6, v}, 10 / kOmega0, nullptr, nullptr, &watch);
+    EXPECT_NEAR(watch.deepest, expected, 1e-9 * expected);
+    OverlapWatch uninterested{2 * v / kOmega0, 0};  // beyond the energy bound v / omega0: ends only
+    advance_normal(o, Separation::overlap, 0, {-1e-6, v}, 10 / kOmega0, nullptr, nullptr, &uninterested);
+    EXPECT_LT(uninterested.deepest, expected);
+  }
+}
+
+TEST(NormalFlow, PeakOverlapUnderGravityIsTheRestOverlapPlusTheSwing) {
+  // Undamped, pressed by gravity from touching at rest: delta swings between 0 and 2 m g / k.
+  const NormalOscillator o{kOmega0, 0};
+  EXPECT_NEAR(peak_overlap(o, kGravity, {0, 0}, 4 / kOmega0), 2 * kRestOverlap, 1e-9 * kRestOverlap);  // at omega0 t = pi
+  // A step ending before the maximum reports the end.
+  const Real t = 1 / kOmega0;
+  EXPECT_NEAR(peak_overlap(o, kGravity, {0, 0}, t), kRestOverlap * (1 - std::cos(kOmega0 * t)), 1e-9 * kRestOverlap);
+}
+
 }  // namespace
 }  // namespace dem
