@@ -25,6 +25,7 @@
 #include "engine/exact_stepper.h"
 #include "engine/forces.h"
 #include "engine/materials.h"
+#include "engine/memory_usage.h"
 #include "engine/parallel.h"
 #include "engine/scheduler.h"
 #include "engine/state.h"
@@ -146,8 +147,12 @@ class World {
   /// The deepest pair or wall overlap as a fraction of the smaller radius involved.
   Culprit deepest_overlap() const;
 
-  /// Heap bytes held by particle, contact and broadphase arrays (capacities, scratch included).
+  /// Heap bytes held by particle, contact, broadphase and stepper arrays, by capacity (what is
+  /// allocated, not what is in use), scratch and per-thread workspaces included; walls and
+  /// materials (not per particle) are left out. The sum of memory_breakdown().
   std::size_t memory_bytes() const;
+  /// The same bytes by container group, in a fixed order (world_memory.cpp).
+  std::vector<MemoryPart> memory_breakdown() const;
 
   // ---- Embedding API (DESIGN.md, Embedding; world_embedding.cpp) -------------------------------
   // For programs that link dem::engine: build from a scene file, run with a callback at sync times,
