@@ -181,13 +181,13 @@ void run_stage(benchmark::State& bench, const std::string& name, const Case& c, 
   tbb::task_arena arena(c.threads);
   const std::size_t n = d->state.size();
   auto contacts = [&] {
-    update_pair_contacts(d->state, d->candidates, d->materials, d->pairs, d->workspace);
+    update_pair_contacts(d->state, d->candidates, d->pairs, d->workspace);
     build_pair_adjacency(n, d->pairs, d->adjacency);
-    update_wall_contacts(d->state, d->walls, d->materials, d->wall_contacts, d->workspace, d->adjacency.wall_start);
+    update_wall_contacts(d->state, d->walls, d->wall_contacts, d->workspace, d->adjacency.wall_start);
   };
   auto forces = [&] {
-    d->kernels.pair_forces(d->state, d->pairs, d->h);
-    d->kernels.wall_forces(d->state, d->walls, d->wall_contacts, d->h);
+    d->kernels.pair_forces(d->state, d->materials, d->pairs, d->h);
+    d->kernels.wall_forces(d->state, d->materials, d->walls, d->wall_contacts, d->h);
     gather_forces(d->state, d->pairs, d->wall_contacts, d->adjacency, d->kernels.uses_rotation, d->dimension);
   };
   arena.execute([&] {  // the inputs each stage reads, as the World has them mid-step

@@ -67,7 +67,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 6;  // 6: contact histories hold their energy books (spectra)
+constexpr std::uint32_t checkpoint_version = 7;  // 7: contacts no longer store their law constants
 
 class ByteWriter {
  public:
@@ -136,12 +136,12 @@ class ByteReader {
 // One list of the fields, used for both directions, so save and load cannot drift apart.
 template <class Io, class T>  // T: PairContacts, const or not
 void pair_fields(Io& io, T& c) {
-  io(c.key), io(c.i), io(c.j), io(c.constants), io(c.history), io(c.overlap), io(c.work), io(c.elastic), io(c.force),
+  io(c.key), io(c.i), io(c.j), io(c.history), io(c.overlap), io(c.work), io(c.elastic), io(c.force),
       io(c.torque_i), io(c.torque_j);
 }
 template <class Io, class T>  // T: WallContacts, const or not
 void wall_fields(Io& io, T& c) {
-  io(c.key), io(c.particle), io(c.wall), io(c.feature), io(c.constants), io(c.history), io(c.overlap), io(c.work),
+  io(c.key), io(c.particle), io(c.wall), io(c.feature), io(c.history), io(c.overlap), io(c.work),
       io(c.elastic), io(c.point), io(c.force), io(c.torque), io(c.rolling_torque);
 }
 template <class Io, class T>  // T: State, const or not

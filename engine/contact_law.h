@@ -152,6 +152,8 @@ inline Vec3 rolling_spring(Vec3& spring, std::uint8_t& mode, const Vec3& rate, R
 
 template <Separation Sep, bool Friction, RollingKind Rolling>
 struct LinearSpringDashpot {
+  static constexpr bool friction = Friction;
+  static constexpr bool rolling = Rolling != RollingKind::none;
   static constexpr bool uses_rotation = Friction || Rolling != RollingKind::none;
 
   static ContactResponse evaluate(const LawConstants& c, const ContactKinematics& k, ContactHistory& history,

@@ -3,23 +3,23 @@
 #include <algorithm>
 #include <limits>
 
+#include "engine/capacity.h"
 #include "engine/checks.h"
 #include "engine/parallel.h"
 
 namespace dem {
 
 void PairContacts::resize(std::size_t n) {
-  key.resize(n);
-  i.resize(n);
-  j.resize(n);
-  constants.resize(n);
-  history.resize(n);
-  overlap.resize(n);
-  work.resize(n);
-  elastic.resize(n);
-  force.resize(n);
-  torque_i.resize(n);
-  torque_j.resize(n);
+  resize_with_headroom(key, n);
+  resize_with_headroom(i, n);
+  resize_with_headroom(j, n);
+  resize_with_headroom(history, n);
+  resize_with_headroom(overlap, n);
+  resize_with_headroom(work, n);
+  resize_with_headroom(elastic, n);
+  resize_with_headroom(force, n);
+  resize_with_headroom(torque_i, n);
+  resize_with_headroom(torque_j, n);
 }
 
 void PairContacts::index_rows(std::size_t particle_count) {
@@ -29,19 +29,18 @@ void PairContacts::index_rows(std::size_t particle_count) {
 }
 
 void WallContacts::resize(std::size_t n) {
-  key.resize(n);
-  particle.resize(n);
-  wall.resize(n);
-  feature.resize(n);
-  constants.resize(n);
-  history.resize(n);
-  overlap.resize(n);
-  work.resize(n);
-  elastic.resize(n);
-  point.resize(n);
-  force.resize(n);
-  torque.resize(n);
-  rolling_torque.resize(n);
+  resize_with_headroom(key, n);
+  resize_with_headroom(particle, n);
+  resize_with_headroom(wall, n);
+  resize_with_headroom(feature, n);
+  resize_with_headroom(history, n);
+  resize_with_headroom(overlap, n);
+  resize_with_headroom(work, n);
+  resize_with_headroom(elastic, n);
+  resize_with_headroom(point, n);
+  resize_with_headroom(force, n);
+  resize_with_headroom(torque, n);
+  resize_with_headroom(rolling_torque, n);
 }
 
 namespace {
@@ -65,8 +64,8 @@ Real live_dissipation(const std::vector<Real>& work, const std::vector<Real>& el
   return block_sum<Real>(work.size(), [&](std::size_t k) { return work[k] - elastic[k]; });
 }
 
-Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& candidates, const MaterialTable& materials,
-                          PairContacts& contacts, ContactWorkspace& work) {
+Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& candidates, PairContacts& contacts,
+                          ContactWorkspace& work) {
   const std::size_t n = candidates.row_count();
   DEM_ASSERT(n == s.size());
   work.count.resize(n);
@@ -108,7 +107,6 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
         ++old;
       }
       if (old < old_end && contacts.key[old] == fresh.key[k]) {
-        fresh.constants[k] = contacts.constants[old];
         fresh.history[k] = contacts.history[old];
         fresh.work[k] = contacts.work[old];
         fresh.elastic[k] = contacts.elastic[old];
@@ -117,10 +115,6 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
         ++old;
         continue;
       }
-      const ParticleIndex i = fresh.i[k], j = fresh.j[k];
-      const EffectiveMasses m = effective_masses(s.inv_mass[i], s.inv_inertia[i], s.radius[i], s.inv_mass[j],
-                                                 s.inv_inertia[j], s.radius[j]);
-      fresh.constants[k] = materials.constants(materials.pair_class(s.material[i], s.material[j]), m);
       fresh.history[k] = ContactHistory{};
       fresh.work[k] = 0;
       fresh.elastic[k] = 0;
@@ -135,8 +129,8 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
   return ended;
 }
 
-Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTable& materials, WallContacts& contacts,
-                          ContactWorkspace& work, std::vector<std::uint32_t>& wall_start) {
+Real update_wall_contacts(const State& s, const Walls& walls, WallContacts& contacts, ContactWorkspace& work,
+                          std::vector<std::uint32_t>& wall_start) {
   const std::size_t n = s.size();
   work.count.resize(n);
   parallel_for(n, [&](std::size_t p) {
@@ -161,16 +155,12 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
         fresh.wall[slot] = static_cast<std::uint32_t>(w);
         const std::ptrdiff_t old = find_key(contacts.key, fresh.key[slot]);
         if (old >= 0) {
-          fresh.constants[slot] = contacts.constants[old];
           fresh.history[slot] = contacts.history[old];
           fresh.work[slot] = contacts.work[old];
           fresh.elastic[slot] = contacts.elastic[old];
           fresh.overlap[slot] = contacts.overlap[old];
           fresh.force[slot] = contacts.force[old];
         } else {
-          const EffectiveMasses m = effective_masses(s.inv_mass[p], s.inv_inertia[p], s.radius[p], 0, 0,
-                                                     std::numeric_limits<Real>::infinity());
-          fresh.constants[slot] = materials.constants(materials.pair_class(s.material[p], walls.material(w)), m);
           fresh.history[slot] = ContactHistory{};
           fresh.work[slot] = 0;
           fresh.elastic[slot] = 0;
@@ -195,7 +185,7 @@ void build_pair_adjacency(std::size_t particle_count, const PairContacts& contac
     ++start[contacts.j[k] + 1];
   }
   for (std::size_t p = 0; p < particle_count; ++p) start[p + 1] += start[p];
-  adjacency.pair_entry.resize(start[particle_count]);
+  resize_with_headroom(adjacency.pair_entry, start[particle_count]);
   // Contacts are sorted by (smaller id, larger id): walking them in order appends, for every
   // particle, first its smaller-id partners ascending, then its larger-id partners ascending.
   auto& cursor = adjacency.cursor;

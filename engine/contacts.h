@@ -1,7 +1,8 @@
 #pragma once
 // Contacts from candidate pairs and walls. Both lists are structures of arrays sorted by a 64-bit key
-// (types.h: pair_key, wall_key); a new list inherits history (springs, modes) and per-contact
-// constants from the old one by key lookup, so history survives grid rebuilds unchanged.
+// (types.h: pair_key, wall_key); a new list inherits history (springs, modes) from the old one by
+// key lookup, so history survives grid rebuilds unchanged. The law's constants are not stored: the
+// force loops get them from the material table (MaterialTable::law_constants).
 // Reads: positions, radii, masses (State), candidate pairs, walls. Writes: the contact lists and
 // the per-particle adjacency used to gather forces.
 // Threading: counts, scan and fills are per row (particle), each writing only its own range, so the
@@ -20,7 +21,6 @@ namespace dem {
 struct PairContacts {
   std::vector<std::uint64_t> key;   // pair_key(id_i, id_j), ascending
   std::vector<ParticleIndex> i, j;  // slots, id_i < id_j
-  std::vector<LawConstants> constants;
   std::vector<ContactHistory> history;
   std::vector<Real> overlap;        // at the last force evaluation [m]
   std::vector<Real> work;           // work done on the contact since it formed [J]
@@ -43,7 +43,6 @@ struct WallContacts {
   std::vector<ParticleIndex> particle;
   std::vector<std::uint32_t> wall;
   std::vector<std::uint32_t> feature;
-  std::vector<LawConstants> constants;
   std::vector<ContactHistory> history;
   std::vector<Real> overlap;  // [m]
   std::vector<Real> work;     // work done on the contact since it formed [J]
@@ -77,13 +76,12 @@ struct ContactWorkspace {
 
 /// Replaces `contacts` by the overlapping candidate pairs, inheriting history by key. Returns the
 /// energy dissipated by the contacts that ended (their work minus what their springs held) [J].
-Real update_pair_contacts(const State& state, const broadphase::CandidatePairs& candidates,
-                          const MaterialTable& materials, PairContacts& contacts, ContactWorkspace& work);
+Real update_pair_contacts(const State& state, const broadphase::CandidatePairs& candidates, PairContacts& contacts,
+                          ContactWorkspace& work);
 
 /// Replaces `contacts` by the current particle-wall overlaps, inheriting history by key. Returns the
 /// energy dissipated by the contacts that ended [J].
-Real update_wall_contacts(const State& state, const Walls& walls, const MaterialTable& materials,
-                          WallContacts& contacts, ContactWorkspace& work, std::vector<std::uint32_t>& wall_start);
+Real update_wall_contacts(const State& state, const Walls& walls, WallContacts& contacts, ContactWorkspace& work, std::vector<std::uint32_t>& wall_start);
 
 /// Energy dissipated so far by the live contacts of a list: sum of work - elastic [J].
 Real live_dissipation(const std::vector<Real>& work, const std::vector<Real>& elastic);

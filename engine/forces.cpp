@@ -1,6 +1,7 @@
 #include "engine/forces.h"
 
 #include <cmath>
+#include <limits>
 
 #include "engine/parallel.h"
 
@@ -8,7 +9,7 @@ namespace dem {
 namespace {
 
 template <class Law>
-void pair_forces(const State& s, PairContacts& c, Real h) {
+void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c, Real h) {
   parallel_for(c.size(), [&](std::size_t k) {
     const ParticleIndex i = c.i[k], j = c.j[k];
     const Vec3 d = s.position[i] - s.position[j];
@@ -35,7 +36,10 @@ void pair_forces(const State& s, PairContacts& c, Real h) {
     ContactHistory& history = c.history[k];
     const Real inv_m = s.inv_mass[i] + s.inv_mass[j];  // two fixed particles: no impact energy
     if (history.impact_energy < 0) history.impact_energy = inv_m > 0 ? 0.5 * kin.overlap_rate * kin.overlap_rate / inv_m : 0;
-    const ContactResponse r = Law::evaluate(c.constants[k], kin, history, h);
+    const LawConstants constants = materials.law_constants<Law::friction, Law::rolling>(
+        materials.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i], s.radius[i], s.inv_mass[j],
+        s.inv_inertia[j], s.radius[j]);
+    const ContactResponse r = Law::evaluate(constants, kin, history, h);
     history.normal_work += h * r.normal_power;
     history.normal_elastic = r.normal_elastic;
     c.overlap[k] = overlap;
@@ -51,7 +55,7 @@ void pair_forces(const State& s, PairContacts& c, Real h) {
 }
 
 template <class Law>
-void wall_forces(const State& s, const Walls& walls, WallContacts& c, Real h) {
+void wall_forces(const State& s, const MaterialTable& materials, const Walls& walls, WallContacts& c, Real h) {
   parallel_for(c.size(), [&](std::size_t k) {
     const ParticleIndex p = c.particle[k];
     const std::uint32_t w = c.wall[k];
@@ -85,7 +89,10 @@ void wall_forces(const State& s, const Walls& walls, WallContacts& c, Real h) {
     kin.rolling_velocity = w_rel;
     ContactHistory& history = c.history[k];
     if (history.impact_energy < 0) history.impact_energy = 0.5 * kin.overlap_rate * kin.overlap_rate / s.inv_mass[p];
-    const ContactResponse r = Law::evaluate(c.constants[k], kin, history, h);
+    const LawConstants constants = materials.law_constants<Law::friction, Law::rolling>(
+        materials.pair_class(s.material[p], walls.material(w)), s.inv_mass[p], s.inv_inertia[p], s.radius[p], 0, 0,
+        std::numeric_limits<Real>::infinity());
+    const ContactResponse r = Law::evaluate(constants, kin, history, h);
     history.normal_work += h * r.normal_power;
     history.normal_elastic = r.normal_elastic;
     c.overlap[k] = touch.overlap;

@@ -13,12 +13,12 @@ namespace {
 void evaluate_forces(IslandState& s, const broadphase::CandidatePairs& candidates, const IslandPhysics& physics,
                      IslandScratch& scratch, Real h) {
   State& st = s.state;
-  s.ended_dissipation += update_pair_contacts(st, candidates, *physics.materials, s.pairs, scratch.contacts);
+  s.ended_dissipation += update_pair_contacts(st, candidates, s.pairs, scratch.contacts);
   build_pair_adjacency(st.size(), s.pairs, s.adjacency);
   s.ended_dissipation +=
-      update_wall_contacts(st, scratch.walls, *physics.materials, s.walls, scratch.contacts, s.adjacency.wall_start);
-  physics.kernels.pair_forces(st, s.pairs, h);
-  physics.kernels.wall_forces(st, scratch.walls, s.walls, h);
+      update_wall_contacts(st, scratch.walls, s.walls, scratch.contacts, s.adjacency.wall_start);
+  physics.kernels.pair_forces(st, *physics.materials, s.pairs, h);
+  physics.kernels.wall_forces(st, *physics.materials, scratch.walls, s.walls, h);
   gather_forces(st, s.pairs, s.walls, s.adjacency, physics.kernels.uses_rotation, physics.dimension);
 }
 

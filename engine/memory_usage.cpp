@@ -9,14 +9,14 @@ std::size_t heap_bytes(const State& s) {
 }
 
 std::size_t heap_bytes(const PairContacts& c) {
-  return heap_bytes(c.key) + heap_bytes(c.i) + heap_bytes(c.j) + heap_bytes(c.constants) + heap_bytes(c.history) +
+  return heap_bytes(c.key) + heap_bytes(c.i) + heap_bytes(c.j) + heap_bytes(c.history) +
          heap_bytes(c.overlap) + heap_bytes(c.work) + heap_bytes(c.elastic) + heap_bytes(c.force) +
          heap_bytes(c.torque_i) + heap_bytes(c.torque_j) + heap_bytes(c.row_start);
 }
 
 std::size_t heap_bytes(const WallContacts& c) {
   return heap_bytes(c.key) + heap_bytes(c.particle) + heap_bytes(c.wall) + heap_bytes(c.feature) +
-         heap_bytes(c.constants) + heap_bytes(c.history) + heap_bytes(c.overlap) + heap_bytes(c.work) +
+         heap_bytes(c.history) + heap_bytes(c.overlap) + heap_bytes(c.work) +
          heap_bytes(c.elastic) + heap_bytes(c.point) + heap_bytes(c.force) + heap_bytes(c.torque) +
          heap_bytes(c.rolling_torque);
 }

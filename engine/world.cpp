@@ -75,6 +75,7 @@ World::~World() = default;
 void World::add_particles() {
   const bool disc = config_.model.dimension == 2;
   const Real kappa = inertia_factor(config_.model.dimension);
+  state_.reserve(state_.size() + config_.particles.size());
   for (const ParticleConfig& p : config_.particles) {
     const int mat = materials_.find(p.material);
     if (mat < 0) throw std::invalid_argument("particle names an unknown material '" + p.material + "'");
@@ -95,14 +96,14 @@ void World::add_particles() {
 void World::evaluate_forces(Real h, bool force_rebuild) {
   const std::size_t n = state_.size();
   if (force_rebuild || skin_tracker_.needs_rebuild(state_.position, candidate_skin_)) rebuild_candidates();
-  ended_dissipation_ += update_pair_contacts(state_, candidates_, materials_, pairs_, workspace_);
+  ended_dissipation_ += update_pair_contacts(state_, candidates_, pairs_, workspace_);
   if (spectra_) spectra_->record_ended(workspace_.pairs, pairs_);  // the workspace holds the old list
   build_pair_adjacency(n, pairs_, adjacency_);
   ended_dissipation_ +=
-      update_wall_contacts(state_, walls_, materials_, wall_contacts_, workspace_, adjacency_.wall_start);
+      update_wall_contacts(state_, walls_, wall_contacts_, workspace_, adjacency_.wall_start);
   if (spectra_) spectra_->record_ended(workspace_.walls, wall_contacts_);
-  kernels_.pair_forces(state_, pairs_, h);
-  kernels_.wall_forces(state_, walls_, wall_contacts_, h);
+  kernels_.pair_forces(state_, materials_, pairs_, h);
+  kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, h);
   gather_forces(state_, pairs_, wall_contacts_, adjacency_, kernels_.uses_rotation, config_.model.dimension);
 }
 

@@ -226,14 +226,14 @@ void gather_island(const Islands& islands, const std::vector<std::uint32_t>& loc
     if (!with_contacts) continue;
     for (std::uint32_t c = pairs.row_start[a]; c < pairs.row_start[a + 1]; ++c, ++pk) {
       cp.key[pk] = pairs.key[c], cp.i[pk] = local[pairs.i[c]], cp.j[pk] = local[pairs.j[c]];
-      cp.constants[pk] = pairs.constants[c], cp.history[pk] = pairs.history[c], cp.overlap[pk] = pairs.overlap[c];
+      cp.history[pk] = pairs.history[c], cp.overlap[pk] = pairs.overlap[c];
       cp.work[pk] = pairs.work[c], cp.elastic[pk] = pairs.elastic[c], cp.force[pk] = pairs.force[c];
       cp.torque_i[pk] = pairs.torque_i[c], cp.torque_j[pk] = pairs.torque_j[c];
     }
     cp.row_start.push_back(static_cast<std::uint32_t>(pk));
     for (std::uint32_t c = wall_start[a]; c < wall_start[a + 1]; ++c, ++wk) {
       cw.key[wk] = walls.key[c], cw.particle[wk] = static_cast<ParticleIndex>(q), cw.wall[wk] = walls.wall[c];
-      cw.feature[wk] = walls.feature[c], cw.constants[wk] = walls.constants[c], cw.history[wk] = walls.history[c];
+      cw.feature[wk] = walls.feature[c], cw.history[wk] = walls.history[c];
       cw.overlap[wk] = walls.overlap[c], cw.work[wk] = walls.work[c], cw.elastic[wk] = walls.elastic[c];
       cw.point[wk] = walls.point[c], cw.force[wk] = walls.force[c], cw.torque[wk] = walls.torque[c];
       cw.rolling_torque[wk] = walls.rolling_torque[c];
@@ -477,7 +477,7 @@ void World::finish_round() {
           std::uint32_t slot = fresh.row_start[member[q]];
           for (std::uint32_t c = cp.row_start[q]; c < cp.row_start[q + 1]; ++c, ++slot) {
             fresh.key[slot] = cp.key[c], fresh.i[slot] = member[cp.i[c]], fresh.j[slot] = member[cp.j[c]];
-            fresh.constants[slot] = cp.constants[c], fresh.history[slot] = cp.history[c];
+            fresh.history[slot] = cp.history[c];
             fresh.overlap[slot] = cp.overlap[c], fresh.work[slot] = cp.work[c], fresh.elastic[slot] = cp.elastic[c];
             fresh.force[slot] = cp.force[c], fresh.torque_i[slot] = cp.torque_i[c], fresh.torque_j[slot] = cp.torque_j[c];
           }
@@ -485,7 +485,7 @@ void World::finish_round() {
           for (std::uint32_t c = is.adjacency.wall_start[q]; c < is.adjacency.wall_start[q + 1]; ++c, ++slot) {
             fresh_walls.key[slot] = cw.key[c], fresh_walls.particle[slot] = member[q];
             fresh_walls.wall[slot] = cw.wall[c], fresh_walls.feature[slot] = cw.feature[c];
-            fresh_walls.constants[slot] = cw.constants[c], fresh_walls.history[slot] = cw.history[c];
+            fresh_walls.history[slot] = cw.history[c];
             fresh_walls.overlap[slot] = cw.overlap[c], fresh_walls.work[slot] = cw.work[c];
             fresh_walls.elastic[slot] = cw.elastic[c], fresh_walls.point[slot] = cw.point[c];
             fresh_walls.force[slot] = cw.force[c], fresh_walls.torque[slot] = cw.torque[c];
