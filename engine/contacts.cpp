@@ -64,8 +64,56 @@ Real live_dissipation(const std::vector<Real>& work, const std::vector<Real>& el
   return block_sum<Real>(work.size(), [&](std::size_t k) { return work[k] - elastic[k]; });
 }
 
+namespace {
+
+constexpr std::uint32_t no_source = 0xffffffffu;  // a new contact: nothing to inherit
+constexpr std::size_t carry_chunk = 4096;          // contacts moved per pass of two parallel loops
+
+// Moves what the surviving contacts carry from their old slots to their new ones, in place. Sources
+// ascend with the new slots (both lists are in key order), so a contact moving to the front never
+// overwrites an old slot that one moving to the back has still to read, nor the reverse; those moving
+// to the front go front to back, those moving to the back go back to front, a chunk at a time
+// through `carry` (within a chunk reads and writes may overlap). New contacts start empty, last.
+void move_carried(PairContacts& c, const std::vector<std::uint32_t>& source, CarryChunk& carry) {
+  const std::size_t m = source.size();
+  carry.history.resize(carry_chunk), carry.work.resize(carry_chunk), carry.elastic.resize(carry_chunk);
+  carry.overlap.resize(carry_chunk), carry.force.resize(carry_chunk);
+  const auto move_chunk = [&](std::size_t k0, std::size_t k1, auto&& moves) {
+    parallel_for(k1 - k0, [&](std::size_t q) {
+      const std::size_t k = k0 + q, from = source[k];
+      if (!moves(k)) return;
+      carry.history[q] = c.history[from], carry.work[q] = c.work[from], carry.elastic[q] = c.elastic[from];
+      carry.overlap[q] = c.overlap[from], carry.force[q] = c.force[from];
+    });
+    parallel_for(k1 - k0, [&](std::size_t q) {
+      const std::size_t k = k0 + q;
+      if (!moves(k)) return;
+      c.history[k] = carry.history[q], c.work[k] = carry.work[q], c.elastic[k] = carry.elastic[q];
+      c.overlap[k] = carry.overlap[q], c.force[k] = carry.force[q];
+    });
+  };
+  const auto to_front = [&](std::size_t k) { return source[k] != no_source && source[k] > k; };
+  const auto to_back = [&](std::size_t k) { return source[k] != no_source && source[k] < k; };
+  for (std::size_t k0 = 0; k0 < m; k0 += carry_chunk) move_chunk(k0, std::min(m, k0 + carry_chunk), to_front);
+  for (std::size_t k1 = m; k1 > 0;) {
+    const std::size_t k0 = k1 - std::min(k1, carry_chunk);
+    move_chunk(k0, k1, to_back);
+    k1 = k0;
+  }
+  parallel_for(m, [&](std::size_t k) {
+    if (source[k] != no_source) return;
+    c.history[k] = ContactHistory{};
+    c.work[k] = 0;
+    c.elastic[k] = 0;
+    c.overlap[k] = 0;
+    c.force[k].setZero();
+  });
+}
+
+}  // namespace
+
 Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& candidates, PairContacts& contacts,
-                          ContactWorkspace& work) {
+                          ContactWorkspace& work, const EndedPairsHook& on_ended) {
   const std::size_t n = candidates.row_count();
   DEM_ASSERT(n == s.size());
   work.count.resize(n);
@@ -76,56 +124,53 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
     work.count[a] = c;
   });
   exclusive_scan(work.count, work.offset);
-  PairContacts& fresh = work.pairs;
-  fresh.resize(work.offset[n]);
+  const std::vector<std::uint32_t>& row_start = work.offset;  // of the new list
+  const std::size_t m = row_start[n];
+  resize_with_headroom(work.key, m), resize_with_headroom(work.i, m), resize_with_headroom(work.j, m);
   parallel_for(n, [&](std::size_t a) {
-    std::uint32_t slot = work.offset[a];
+    std::uint32_t slot = row_start[a];
     for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
       const ParticleIndex b = candidates.partner[k];
       if (!overlapping(s, static_cast<ParticleIndex>(a), b)) continue;
       // Slots follow ids; with slots in id order a row of ascending partners is ascending in key.
       const bool a_first = s.id[a] < s.id[b];
-      fresh.i[slot] = a_first ? static_cast<ParticleIndex>(a) : b;
-      fresh.j[slot] = a_first ? b : static_cast<ParticleIndex>(a);
-      fresh.key[slot] = pair_key(s.id[a], s.id[b]);
+      work.i[slot] = a_first ? static_cast<ParticleIndex>(a) : b;
+      work.j[slot] = a_first ? b : static_cast<ParticleIndex>(a);
+      work.key[slot] = pair_key(s.id[a], s.id[b]);
       ++slot;
     }
   });
-  DEM_VALIDATE(std::is_sorted(fresh.key.begin(), fresh.key.end()));
-  fresh.row_start = work.offset;
+  DEM_VALIDATE(std::is_sorted(work.key.begin(), work.key.end()));
   if (contacts.row_start.size() != n + 1) contacts.index_rows(n);
-  // Inherit history row by row: old and new contacts of a row are both ascending in key, so a
-  // linear merge pairs them up (streaming, no search); old ones left over have ended.
+  // Match row by row: old and new contacts of a row are both ascending in key, so a linear merge
+  // pairs them up (streaming, no search); old ones left over have ended.
+  resize_with_headroom(work.source, m);
   work.row_ended.resize(n);
   parallel_for(n, [&](std::size_t a) {
     std::uint32_t old = contacts.row_start[a];
     const std::uint32_t old_end = contacts.row_start[a + 1];
     Real ended = 0;
-    for (std::uint32_t k = fresh.row_start[a]; k < fresh.row_start[a + 1]; ++k) {
-      while (old < old_end && contacts.key[old] < fresh.key[k]) {
+    for (std::uint32_t k = row_start[a]; k < row_start[a + 1]; ++k) {
+      while (old < old_end && contacts.key[old] < work.key[k]) {
         ended += contacts.work[old] - contacts.elastic[old];
         ++old;
       }
-      if (old < old_end && contacts.key[old] == fresh.key[k]) {
-        fresh.history[k] = contacts.history[old];
-        fresh.work[k] = contacts.work[old];
-        fresh.elastic[k] = contacts.elastic[old];
-        fresh.overlap[k] = contacts.overlap[old];
-        fresh.force[k] = contacts.force[old];
-        ++old;
-        continue;
-      }
-      fresh.history[k] = ContactHistory{};
-      fresh.work[k] = 0;
-      fresh.elastic[k] = 0;
-      fresh.overlap[k] = 0;
-      fresh.force[k].setZero();
+      const bool inherits = old < old_end && contacts.key[old] == work.key[k];
+      work.source[k] = inherits ? old++ : no_source;
     }
     for (; old < old_end; ++old) ended += contacts.work[old] - contacts.elastic[old];
     work.row_ended[a] = ended;
   });
   const Real ended = block_sum<Real>(n, [&](std::size_t a) { return work.row_ended[a]; });
-  std::swap(contacts, fresh);
+  if (on_ended) on_ended(contacts, work.key);
+  const std::size_t reach = std::max(contacts.size(), m);  // old slots are read, new ones written
+  resize_with_headroom(contacts.history, reach), resize_with_headroom(contacts.work, reach);
+  resize_with_headroom(contacts.elastic, reach), resize_with_headroom(contacts.overlap, reach);
+  resize_with_headroom(contacts.force, reach);
+  move_carried(contacts, work.source, work.carry);
+  contacts.key.swap(work.key), contacts.i.swap(work.i), contacts.j.swap(work.j);
+  contacts.row_start.swap(work.offset);
+  contacts.resize(m);  // drops the old tail; torques wait for the force loop
   return ended;
 }
 

@@ -8,6 +8,7 @@
 // Threading: counts, scan and fills are per row (particle), each writing only its own range, so the
 // lists are identical for any thread count.
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "broadphase/candidate_pairs.h"
@@ -65,19 +66,36 @@ struct ContactAdjacency {
   std::vector<std::uint32_t> cursor;      // scratch of build_pair_adjacency
 };
 
+/// The fields a pair contact carries into the next list, for one chunk of contacts on the move.
+struct CarryChunk {
+  std::vector<ContactHistory> history;
+  std::vector<Real> work, elastic, overlap;
+  std::vector<Vec3> force;
+};
+
 /// Scratch buffers reused between calls (no allocation after warm-up).
 struct ContactWorkspace {
   std::vector<std::uint32_t> count;
   std::vector<std::uint32_t> offset;
   std::vector<Real> row_ended;  // per row: what its ended contacts dissipated [J]
-  PairContacts pairs;
+  // update_pair_contacts: the new list's keys and slots (after the call, the old list's), and per new
+  // contact its slot in the old list; the rest of a contact moves in place, through `carry`.
+  std::vector<std::uint64_t> key;
+  std::vector<ParticleIndex> i, j;
+  std::vector<std::uint32_t> source;
+  CarryChunk carry;
+  PairContacts pairs;  // step doubling's new list (world_doubling.cpp)
   WallContacts walls;
 };
 
-/// Replaces `contacts` by the overlapping candidate pairs, inheriting history by key. Returns the
-/// energy dissipated by the contacts that ended (their work minus what their springs held) [J].
+/// Called by update_pair_contacts while the old list is still whole, with the new list's keys.
+using EndedPairsHook = std::function<void(const PairContacts& before, const std::vector<std::uint64_t>& after_key)>;
+
+/// Replaces `contacts` by the overlapping candidate pairs, inheriting history by key, in place: only
+/// the keys and slots are built beside the old list. Returns the energy dissipated by the contacts
+/// that ended (their work minus what their springs held) [J]. The torques are left for the force loop.
 Real update_pair_contacts(const State& state, const broadphase::CandidatePairs& candidates, PairContacts& contacts,
-                          ContactWorkspace& work);
+                          ContactWorkspace& work, const EndedPairsHook& on_ended = {});
 
 /// Replaces `contacts` by the current particle-wall overlaps, inheriting history by key. Returns the
 /// energy dissipated by the contacts that ended [J].

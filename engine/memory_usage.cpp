@@ -26,8 +26,11 @@ std::size_t heap_bytes(const ContactAdjacency& a) {
 }
 
 std::size_t heap_bytes(const ContactWorkspace& w) {
-  return heap_bytes(w.count) + heap_bytes(w.offset) + heap_bytes(w.row_ended) + heap_bytes(w.pairs) +
-         heap_bytes(w.walls);
+  const CarryChunk& c = w.carry;
+  const std::size_t carry = heap_bytes(c.history) + heap_bytes(c.work) + heap_bytes(c.elastic) +
+                            heap_bytes(c.overlap) + heap_bytes(c.force);
+  return heap_bytes(w.count) + heap_bytes(w.offset) + heap_bytes(w.row_ended) + heap_bytes(w.key) +
+         heap_bytes(w.i) + heap_bytes(w.j) + heap_bytes(w.source) + carry + heap_bytes(w.pairs) + heap_bytes(w.walls);
 }
 
 std::size_t heap_bytes(const broadphase::CandidatePairs& c) { return heap_bytes(c.row_start) + heap_bytes(c.partner); }

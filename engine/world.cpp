@@ -96,8 +96,11 @@ void World::add_particles() {
 void World::evaluate_forces(Real h, bool force_rebuild) {
   const std::size_t n = state_.size();
   if (force_rebuild || skin_tracker_.needs_rebuild(state_.position, candidate_skin_)) rebuild_candidates();
-  ended_dissipation_ += update_pair_contacts(state_, candidates_, pairs_, workspace_);
-  if (spectra_) spectra_->record_ended(workspace_.pairs, pairs_);  // the workspace holds the old list
+  // Contacts that end are booked while the old list is still whole (it is updated in place).
+  const EndedPairsHook book_ended = [&](const PairContacts& before, const std::vector<std::uint64_t>& after_key) {
+    spectra_->record_ended(before, after_key);
+  };
+  ended_dissipation_ += update_pair_contacts(state_, candidates_, pairs_, workspace_, spectra_ ? book_ended : EndedPairsHook{});
   build_pair_adjacency(n, pairs_, adjacency_);
   ended_dissipation_ +=
       update_wall_contacts(state_, walls_, wall_contacts_, workspace_, adjacency_.wall_start);
