@@ -48,7 +48,7 @@ void CollisionSpectra::record(Kind kind, const ContactHistory& history, Real wor
 }
 
 void CollisionSpectra::record_ended(const PairContacts& before, const std::vector<std::uint64_t>& after_key) {
-  for_each_ended(before.key, after_key, [&](std::size_t k) { record(ball_ball, before.history[k], before.work[k], before.elastic[k]); });
+  for_each_ended(before.key, after_key, [&](std::size_t k) { record(ball_ball, before.history(k), before.work[k], before.elastic[k]); });
 }
 
 void CollisionSpectra::record_ended(const WallContacts& before, const WallContacts& after) {

@@ -10,16 +10,31 @@
 namespace dem {
 
 void PairContacts::resize(std::size_t n) {
-  resize_with_headroom(key, n);
-  resize_with_headroom(i, n);
-  resize_with_headroom(j, n);
-  resize_with_headroom(history, n);
-  resize_with_headroom(overlap, n);
-  resize_with_headroom(work, n);
-  resize_with_headroom(elastic, n);
-  resize_with_headroom(force, n);
-  resize_with_headroom(torque_i, n);
-  resize_with_headroom(torque_j, n);
+  for_each_array(parts, [&](auto field) { resize_with_headroom(this->*field, n); });
+}
+
+ContactHistory PairContacts::history(std::size_t k) const {
+  ContactHistory h;
+  if (parts.friction) h.tangential_spring = tangential_spring[k];
+  if (parts.rolling) h.rolling_spring = rolling_spring[k];
+  h.mode = mode[k];
+  if (parts.books) {
+    h.normal_work = books[k].normal_work;
+    h.normal_elastic = books[k].normal_elastic;
+    h.impact_energy = books[k].impact_energy;
+  }
+  return h;
+}
+
+void PairContacts::set_history(std::size_t k, const ContactHistory& h) {
+  if (parts.friction) tangential_spring[k] = h.tangential_spring;
+  if (parts.rolling) rolling_spring[k] = h.rolling_spring;
+  mode[k] = h.mode;
+  if (parts.books) books[k] = {h.normal_work, h.normal_elastic, h.impact_energy};
+}
+
+void copy_pair(const PairContacts& a, std::size_t from, PairContacts& b, std::size_t to) {
+  PairContacts::for_each_array(a.parts, [&](auto field) { (b.*field)[to] = (a.*field)[from]; });
 }
 
 void PairContacts::index_rows(std::size_t particle_count) {
@@ -74,22 +89,19 @@ constexpr std::size_t carry_chunk = 4096;          // contacts moved per pass of
 // overwrites an old slot that one moving to the back has still to read, nor the reverse; those moving
 // to the front go front to back, those moving to the back go back to front, a chunk at a time
 // through `carry` (within a chunk reads and writes may overlap). New contacts start empty, last.
-void move_carried(PairContacts& c, const std::vector<std::uint32_t>& source, CarryChunk& carry) {
+void move_carried(PairContacts& c, const std::vector<std::uint32_t>& source, PairContacts& carry) {
   const std::size_t m = source.size();
-  carry.history.resize(carry_chunk), carry.work.resize(carry_chunk), carry.elastic.resize(carry_chunk);
-  carry.overlap.resize(carry_chunk), carry.force.resize(carry_chunk);
+  carry.parts = c.parts;
+  PairContacts::for_each_carried(c.parts, [&](auto field) { (carry.*field).resize(carry_chunk); });
   const auto move_chunk = [&](std::size_t k0, std::size_t k1, auto&& moves) {
     parallel_for(k1 - k0, [&](std::size_t q) {
-      const std::size_t k = k0 + q, from = source[k];
-      if (!moves(k)) return;
-      carry.history[q] = c.history[from], carry.work[q] = c.work[from], carry.elastic[q] = c.elastic[from];
-      carry.overlap[q] = c.overlap[from], carry.force[q] = c.force[from];
+      if (!moves(k0 + q)) return;
+      const std::size_t from = source[k0 + q];
+      PairContacts::for_each_carried(c.parts, [&](auto field) { (carry.*field)[q] = (c.*field)[from]; });
     });
     parallel_for(k1 - k0, [&](std::size_t q) {
-      const std::size_t k = k0 + q;
-      if (!moves(k)) return;
-      c.history[k] = carry.history[q], c.work[k] = carry.work[q], c.elastic[k] = carry.elastic[q];
-      c.overlap[k] = carry.overlap[q], c.force[k] = carry.force[q];
+      if (!moves(k0 + q)) return;
+      PairContacts::for_each_carried(c.parts, [&](auto field) { (c.*field)[k0 + q] = (carry.*field)[q]; });
     });
   };
   const auto to_front = [&](std::size_t k) { return source[k] != no_source && source[k] > k; };
@@ -102,7 +114,7 @@ void move_carried(PairContacts& c, const std::vector<std::uint32_t>& source, Car
   }
   parallel_for(m, [&](std::size_t k) {
     if (source[k] != no_source) return;
-    c.history[k] = ContactHistory{};
+    c.set_history(k, ContactHistory{});
     c.work[k] = 0;
     c.elastic[k] = 0;
     c.overlap[k] = 0;
@@ -164,9 +176,7 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
   const Real ended = block_sum<Real>(n, [&](std::size_t a) { return work.row_ended[a]; });
   if (on_ended) on_ended(contacts, work.key);
   const std::size_t reach = std::max(contacts.size(), m);  // old slots are read, new ones written
-  resize_with_headroom(contacts.history, reach), resize_with_headroom(contacts.work, reach);
-  resize_with_headroom(contacts.elastic, reach), resize_with_headroom(contacts.overlap, reach);
-  resize_with_headroom(contacts.force, reach);
+  PairContacts::for_each_carried(contacts.parts, [&](auto field) { resize_with_headroom(contacts.*field, reach); });
   move_carried(contacts, work.source, work.carry);
   contacts.key.swap(work.key), contacts.i.swap(work.i), contacts.j.swap(work.j);
   contacts.row_start.swap(work.offset);

@@ -105,8 +105,7 @@ bool same_contacts(const IslandState& start, const IslandState& full, const Isla
   if (start.pairs.key != half.pairs.key || full.pairs.key != half.pairs.key) return false;
   if (start.walls.key != half.walls.key || full.walls.key != half.walls.key) return false;
   for (std::size_t k = 0; k < half.pairs.size(); ++k)
-    if (start.pairs.history[k].mode != half.pairs.history[k].mode ||
-        full.pairs.history[k].mode != half.pairs.history[k].mode)
+    if (start.pairs.mode[k] != half.pairs.mode[k] || full.pairs.mode[k] != half.pairs.mode[k])
       return false;
   for (std::size_t k = 0; k < half.walls.size(); ++k)
     if (start.walls.history[k].mode != half.walls.history[k].mode ||

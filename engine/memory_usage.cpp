@@ -9,9 +9,9 @@ std::size_t heap_bytes(const State& s) {
 }
 
 std::size_t heap_bytes(const PairContacts& c) {
-  return heap_bytes(c.key) + heap_bytes(c.i) + heap_bytes(c.j) + heap_bytes(c.history) +
-         heap_bytes(c.overlap) + heap_bytes(c.work) + heap_bytes(c.elastic) + heap_bytes(c.force) +
-         heap_bytes(c.torque_i) + heap_bytes(c.torque_j) + heap_bytes(c.row_start);
+  std::size_t total = heap_bytes(c.row_start);
+  PairContacts::for_each_array(c.parts, [&](auto field) { total += heap_bytes(c.*field); });
+  return total;
 }
 
 std::size_t heap_bytes(const WallContacts& c) {
@@ -26,11 +26,9 @@ std::size_t heap_bytes(const ContactAdjacency& a) {
 }
 
 std::size_t heap_bytes(const ContactWorkspace& w) {
-  const CarryChunk& c = w.carry;
-  const std::size_t carry = heap_bytes(c.history) + heap_bytes(c.work) + heap_bytes(c.elastic) +
-                            heap_bytes(c.overlap) + heap_bytes(c.force);
   return heap_bytes(w.count) + heap_bytes(w.offset) + heap_bytes(w.row_ended) + heap_bytes(w.key) +
-         heap_bytes(w.i) + heap_bytes(w.j) + heap_bytes(w.source) + carry + heap_bytes(w.pairs) + heap_bytes(w.walls);
+         heap_bytes(w.i) + heap_bytes(w.j) + heap_bytes(w.source) + heap_bytes(w.carry) + heap_bytes(w.pairs) +
+         heap_bytes(w.walls);
 }
 
 std::size_t heap_bytes(const broadphase::CandidatePairs& c) { return heap_bytes(c.row_start) + heap_bytes(c.partner); }

@@ -56,14 +56,16 @@ World::World(const WorldConfig& config)
     skin_ = 0.1 * r_min;
   }
   candidate_skin_ = skin_;
+  const bool book_spectra = config_.collision_spectra && config_.integrator.control == Control::fixed &&
+                            config_.integrator.method == Method::verlet;
+  pairs_.parts = {materials_.any_friction(), materials_.any_rolling(), book_spectra};
   arena_->execute([&] { evaluate_forces(0, true); });
   // Energy already in the springs at the start was not dissipated: count it as work done on them.
   pairs_.work = pairs_.elastic;
   wall_contacts_.work = wall_contacts_.elastic;
-  for (ContactHistory& h : pairs_.history) h.normal_work = h.normal_elastic;
+  for (EnergyBooks& b : pairs_.books) b.normal_work = b.normal_elastic;
   for (ContactHistory& h : wall_contacts_.history) h.normal_work = h.normal_elastic;
-  if (config_.collision_spectra && config_.integrator.control == Control::fixed && config_.integrator.method == Method::verlet)
-    spectra_ = std::make_unique<CollisionSpectra>();
+  if (book_spectra) spectra_ = std::make_unique<CollisionSpectra>();
   for (const WallConfig& w : config_.walls)
     walls_move_ = walls_move_ || w.velocity.norm() > 0 || w.angular_velocity.norm() > 0;
   start_energies_ = energies();

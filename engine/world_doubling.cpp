@@ -208,6 +208,7 @@ void gather_island(const Islands& islands, const std::vector<std::uint32_t>& loc
     pair_count += pairs.row_start[member[q] + 1] - pairs.row_start[member[q]];
     wall_count += wall_start[member[q] + 1] - wall_start[member[q]];
   }
+  cp.parts = pairs.parts;
   cp.resize(pair_count);
   cp.row_start.assign(1, 0);
   cw.resize(wall_count);
@@ -225,10 +226,8 @@ void gather_island(const Islands& islands, const std::vector<std::uint32_t>& loc
     cand.row_start.push_back(static_cast<std::uint32_t>(cand.partner.size()));
     if (!with_contacts) continue;
     for (std::uint32_t c = pairs.row_start[a]; c < pairs.row_start[a + 1]; ++c, ++pk) {
-      cp.key[pk] = pairs.key[c], cp.i[pk] = local[pairs.i[c]], cp.j[pk] = local[pairs.j[c]];
-      cp.history[pk] = pairs.history[c], cp.overlap[pk] = pairs.overlap[c];
-      cp.work[pk] = pairs.work[c], cp.elastic[pk] = pairs.elastic[c], cp.force[pk] = pairs.force[c];
-      cp.torque_i[pk] = pairs.torque_i[c], cp.torque_j[pk] = pairs.torque_j[c];
+      copy_pair(pairs, c, cp, pk);
+      cp.i[pk] = local[pairs.i[c]], cp.j[pk] = local[pairs.j[c]];
     }
     cp.row_start.push_back(static_cast<std::uint32_t>(pk));
     for (std::uint32_t c = wall_start[a]; c < wall_start[a + 1]; ++c, ++wk) {
@@ -461,6 +460,7 @@ void World::finish_round() {
       1);
   PairContacts& fresh = workspace_.pairs;
   WallContacts& fresh_walls = workspace_.walls;
+  fresh.parts = pairs_.parts;
   exclusive_scan(pair_count, fresh.row_start);
   exclusive_scan(wall_count, adjacency_.wall_start);
   fresh.resize(fresh.row_start[n]);
@@ -476,10 +476,8 @@ void World::finish_round() {
         for (std::size_t q = 0; q < is.state.size(); ++q) {
           std::uint32_t slot = fresh.row_start[member[q]];
           for (std::uint32_t c = cp.row_start[q]; c < cp.row_start[q + 1]; ++c, ++slot) {
-            fresh.key[slot] = cp.key[c], fresh.i[slot] = member[cp.i[c]], fresh.j[slot] = member[cp.j[c]];
-            fresh.history[slot] = cp.history[c];
-            fresh.overlap[slot] = cp.overlap[c], fresh.work[slot] = cp.work[c], fresh.elastic[slot] = cp.elastic[c];
-            fresh.force[slot] = cp.force[c], fresh.torque_i[slot] = cp.torque_i[c], fresh.torque_j[slot] = cp.torque_j[c];
+            copy_pair(cp, c, fresh, slot);
+            fresh.i[slot] = member[cp.i[c]], fresh.j[slot] = member[cp.j[c]];
           }
           slot = adjacency_.wall_start[member[q]];
           for (std::uint32_t c = is.adjacency.wall_start[q]; c < is.adjacency.wall_start[q + 1]; ++c, ++slot) {

@@ -169,12 +169,7 @@ ParticleId World::add_particle(const ParticleConfig& p) {
 namespace {
 
 /// Moves contact `from` to slot `to` (to <= from) of a list, every field.
-void move_pair(PairContacts& c, std::size_t from, std::size_t to) {
-  c.key[to] = c.key[from], c.i[to] = c.i[from], c.j[to] = c.j[from];
-  c.history[to] = c.history[from], c.overlap[to] = c.overlap[from], c.work[to] = c.work[from];
-  c.elastic[to] = c.elastic[from], c.force[to] = c.force[from], c.torque_i[to] = c.torque_i[from];
-  c.torque_j[to] = c.torque_j[from];
-}
+void move_pair(PairContacts& c, std::size_t from, std::size_t to) { copy_pair(c, from, c, to); }
 
 void move_wall(WallContacts& c, std::size_t from, std::size_t to) {
   c.key[to] = c.key[from], c.particle[to] = c.particle[from], c.wall[to] = c.wall[from];
@@ -209,7 +204,7 @@ bool World::remove_particle(ParticleId id) {
     if (pairs_.i[k] == slot || pairs_.j[k] == slot) {
       carried += pairs_.elastic[k];
       if (contact_books) ended_dissipation_ += pairs_.work[k] - pairs_.elastic[k];
-      if (spectra_) spectra_->record(CollisionSpectra::ball_ball, pairs_.history[k], pairs_.work[k], pairs_.elastic[k]);
+      if (spectra_) spectra_->record(CollisionSpectra::ball_ball, pairs_.history(k), pairs_.work[k], pairs_.elastic[k]);
       continue;
     }
     move_pair(pairs_, k, kept);
