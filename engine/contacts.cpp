@@ -138,7 +138,8 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
   exclusive_scan(work.count, work.offset);
   const std::vector<std::uint32_t>& row_start = work.offset;  // of the new list
   const std::size_t m = row_start[n];
-  resize_with_headroom(work.key, m), resize_with_headroom(work.i, m), resize_with_headroom(work.j, m);
+  if (contacts.row_start.size() != n + 1) contacts.index_rows(n);  // the last use of the old i, j
+  resize_with_headroom(work.key, m), resize_with_headroom(contacts.i, m), resize_with_headroom(contacts.j, m);
   parallel_for(n, [&](std::size_t a) {
     std::uint32_t slot = row_start[a];
     for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
@@ -146,14 +147,13 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
       if (!overlapping(s, static_cast<ParticleIndex>(a), b)) continue;
       // Slots follow ids; with slots in id order a row of ascending partners is ascending in key.
       const bool a_first = s.id[a] < s.id[b];
-      work.i[slot] = a_first ? static_cast<ParticleIndex>(a) : b;
-      work.j[slot] = a_first ? b : static_cast<ParticleIndex>(a);
+      contacts.i[slot] = a_first ? static_cast<ParticleIndex>(a) : b;
+      contacts.j[slot] = a_first ? b : static_cast<ParticleIndex>(a);
       work.key[slot] = pair_key(s.id[a], s.id[b]);
       ++slot;
     }
   });
   DEM_VALIDATE(std::is_sorted(work.key.begin(), work.key.end()));
-  if (contacts.row_start.size() != n + 1) contacts.index_rows(n);
   // Match row by row: old and new contacts of a row are both ascending in key, so a linear merge
   // pairs them up (streaming, no search); old ones left over have ended.
   resize_with_headroom(work.source, m);
@@ -178,7 +178,7 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
   const std::size_t reach = std::max(contacts.size(), m);  // old slots are read, new ones written
   PairContacts::for_each_carried(contacts.parts, [&](auto field) { resize_with_headroom(contacts.*field, reach); });
   move_carried(contacts, work.source, work.carry);
-  contacts.key.swap(work.key), contacts.i.swap(work.i), contacts.j.swap(work.j);
+  contacts.key.swap(work.key);
   contacts.row_start.swap(work.offset);
   contacts.resize(m);  // drops the old tail; torques wait for the force loop
   return ended;

@@ -119,21 +119,21 @@ struct ContactWorkspace {
   std::vector<std::uint32_t> count;
   std::vector<std::uint32_t> offset;
   std::vector<Real> row_ended;  // per row: what its ended contacts dissipated [J]
-  // update_pair_contacts: the new list's keys and slots (after the call, the old list's), and per new
-  // contact its slot in the old list; the rest of a contact moves in place, through `carry`.
+  // update_pair_contacts: the new list's keys (after the call, the old list's), and per new contact
+  // its slot in the old list; the rest of a contact moves in place, through `carry`.
   std::vector<std::uint64_t> key;
-  std::vector<ParticleIndex> i, j;
   std::vector<std::uint32_t> source;
   PairContacts carry;  // the carried arrays only, one chunk long
   PairContacts pairs;  // step doubling's new list (world_doubling.cpp)
   WallContacts walls;
 };
 
-/// Called by update_pair_contacts while the old list is still whole, with the new list's keys.
+/// Called by update_pair_contacts while the old list's keys and carried fields are still whole
+/// (its i and j already hold the new list's), with the new list's keys.
 using EndedPairsHook = std::function<void(const PairContacts& before, const std::vector<std::uint64_t>& after_key)>;
 
 /// Replaces `contacts` by the overlapping candidate pairs, inheriting history by key, in place: only
-/// the keys and slots are built beside the old list. Returns the energy dissipated by the contacts
+/// the keys are built beside the old list (the old slots i, j are not needed: they are overwritten). Returns the energy dissipated by the contacts
 /// that ended (their work minus what their springs held) [J]. The torques are left for the force loop.
 Real update_pair_contacts(const State& state, const broadphase::CandidatePairs& candidates, PairContacts& contacts,
                           ContactWorkspace& work, const EndedPairsHook& on_ended = {});
