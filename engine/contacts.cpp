@@ -92,7 +92,8 @@ constexpr std::size_t carry_chunk = 4096;          // contacts moved per pass of
 void move_carried(PairContacts& c, const std::vector<std::uint32_t>& source, PairContacts& carry) {
   const std::size_t m = source.size();
   carry.parts = c.parts;
-  PairContacts::for_each_carried(c.parts, [&](auto field) { (carry.*field).resize(carry_chunk); });
+  const std::size_t chunk = std::min(m, carry_chunk);  // a small list needs no full chunk
+  PairContacts::for_each_carried(c.parts, [&](auto field) { (carry.*field).resize(chunk); });
   const auto move_chunk = [&](std::size_t k0, std::size_t k1, auto&& moves) {
     parallel_for(k1 - k0, [&](std::size_t q) {
       if (!moves(k0 + q)) return;
