@@ -172,6 +172,7 @@ void run_stage(benchmark::State& bench, const std::string& name, const Case& c, 
   d->materials = world->materials();
   d->walls = world->walls();
   d->kernels = select_force_kernels(config.model.separation, world->materials().any_friction(), RollingKind::none);
+  d->pairs.parts = {world->materials().any_friction(), false, false};  // the parts those kernels use
   d->gravity = config.model.gravity;
   d->dimension = config.model.dimension;
   d->h = world->sync_interval();

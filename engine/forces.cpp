@@ -3,13 +3,40 @@
 #include <cmath>
 #include <limits>
 
+#include "engine/checks.h"
 #include "engine/parallel.h"
 
 namespace dem {
 namespace {
 
+// A pair contact's history as the law sees it (PairContacts::history, with the parts fixed by the
+// law at compile time: the list holds exactly those, pair_forces checks); the energy books only
+// when the list keeps them (collision spectra).
+template <class Law>
+ContactHistory load_history(const PairContacts& c, std::size_t k, bool books) {
+  ContactHistory h;
+  if constexpr (Law::friction) h.tangential_spring = c.tangential_spring[k];
+  if constexpr (Law::rolling) h.rolling_spring = c.rolling_spring[k];
+  h.mode = c.mode[k];
+  if (books) {
+    const EnergyBooks& b = c.books[k];
+    h.normal_work = b.normal_work, h.normal_elastic = b.normal_elastic, h.impact_energy = b.impact_energy;
+  }
+  return h;
+}
+
+template <class Law>
+void store_history(PairContacts& c, std::size_t k, bool books, const ContactHistory& h) {
+  if constexpr (Law::friction) c.tangential_spring[k] = h.tangential_spring;
+  if constexpr (Law::rolling) c.rolling_spring[k] = h.rolling_spring;
+  c.mode[k] = h.mode;
+  if (books) c.books[k] = {h.normal_work, h.normal_elastic, h.impact_energy};
+}
+
 template <class Law>
 void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c, Real h) {
+  DEM_ASSERT(c.parts.friction == Law::friction && c.parts.rolling == Law::rolling);
+  const bool books = c.parts.books;
   parallel_for(c.size(), [&](std::size_t k) {
     const ParticleIndex i = c.i[k], j = c.j[k];
     const Vec3 d = s.position[i] - s.position[j];
@@ -33,9 +60,9 @@ void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c
     kin.overlap_rate = -u.dot(n);
     kin.tangential_velocity = u + kin.overlap_rate * n;
     kin.rolling_velocity = w_rel;
-    ContactHistory history = c.history(k);
+    ContactHistory history = load_history<Law>(c, k, books);
     const Real inv_m = s.inv_mass[i] + s.inv_mass[j];  // two fixed particles: no impact energy
-    if (c.parts.books && history.impact_energy < 0)
+    if (books && history.impact_energy < 0)
       history.impact_energy = inv_m > 0 ? 0.5 * kin.overlap_rate * kin.overlap_rate / inv_m : 0;
     const LawConstants constants = materials.law_constants<Law::friction, Law::rolling>(
         materials.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i], s.radius[i], s.inv_mass[j],
@@ -43,14 +70,14 @@ void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c
     const ContactResponse r = Law::evaluate(constants, kin, history, h);
     history.normal_work += h * r.normal_power;
     history.normal_elastic = r.normal_elastic;
-    c.set_history(k, history);
+    store_history<Law>(c, k, books, history);
     c.overlap[k] = overlap;
     c.work[k] += h * r.power;
     c.elastic[k] = r.elastic;
     c.force[k] = r.force;
     if constexpr (Law::uses_rotation) {
       c.lever[k] = n.cross(r.force);  // only the tangential part of the force has a moment
-      if (c.parts.rolling) c.rolling_torque[k] = r.rolling_torque;
+      if constexpr (Law::rolling) c.rolling_torque[k] = r.rolling_torque;
     }
   });
 }
