@@ -172,6 +172,7 @@ void run_stage(benchmark::State& bench, const std::string& name, const Case& c, 
   d->materials = world->materials();
   d->walls = world->walls();
   d->kernels = select_force_kernels(config.model.separation, world->materials().any_friction(), RollingKind::none);
+  d->pairs.parts = {world->materials().any_friction(), false, false};  // the parts those kernels use
   d->gravity = config.model.gravity;
   d->dimension = config.model.dimension;
   d->h = world->sync_interval();
@@ -186,8 +187,8 @@ void run_stage(benchmark::State& bench, const std::string& name, const Case& c, 
     update_wall_contacts(d->state, d->walls, d->materials, d->wall_contacts, d->workspace, d->adjacency.wall_start);
   };
   auto forces = [&] {
-    d->kernels.pair_forces(d->state, d->pairs, d->h);
-    d->kernels.wall_forces(d->state, d->walls, d->wall_contacts, d->h);
+    d->kernels.pair_forces(d->state, d->materials, d->pairs, d->h);
+    d->kernels.wall_forces(d->state, d->materials, d->walls, d->wall_contacts, d->h);
     gather_forces(d->state, d->pairs, d->wall_contacts, d->adjacency, d->kernels.uses_rotation, d->dimension);
   };
   arena.execute([&] {  // the inputs each stage reads, as the World has them mid-step

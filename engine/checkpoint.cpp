@@ -47,7 +47,7 @@ std::uint64_t state_hash(const State& s, const PairContacts& pairs, const WallCo
   }
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     h.add(pairs.key[k]);
-    h.add_history(pairs.history[k]);
+    h.add_history(pairs.history(k));
   }
   for (std::size_t k = 0; k < walls.size(); ++k) {
     h.add(walls.key[k]);
@@ -67,7 +67,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 6;  // 6: contact histories hold their energy books (spectra)
+constexpr std::uint32_t checkpoint_version = 8;  // 8: pair contacts store only the parts their run uses
 
 class ByteWriter {
  public:
@@ -136,12 +136,11 @@ class ByteReader {
 // One list of the fields, used for both directions, so save and load cannot drift apart.
 template <class Io, class T>  // T: PairContacts, const or not
 void pair_fields(Io& io, T& c) {
-  io(c.key), io(c.i), io(c.j), io(c.constants), io(c.history), io(c.overlap), io(c.work), io(c.elastic), io(c.force),
-      io(c.torque_i), io(c.torque_j);
+  PairContacts::for_each_array(c.parts, [&](auto field) { io(c.*field); });
 }
 template <class Io, class T>  // T: WallContacts, const or not
 void wall_fields(Io& io, T& c) {
-  io(c.key), io(c.particle), io(c.wall), io(c.feature), io(c.constants), io(c.history), io(c.overlap), io(c.work),
+  io(c.key), io(c.particle), io(c.wall), io(c.feature), io(c.history), io(c.overlap), io(c.work),
       io(c.elastic), io(c.point), io(c.force), io(c.torque), io(c.rolling_torque);
 }
 template <class Io, class T>  // T: State, const or not
@@ -221,6 +220,7 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   for (Real* e : {&start.kinetic, &start.rotational, &start.potential, &start.elastic}) *e = r.get<Real>();
   State state;
   PairContacts pairs;
+  pairs.parts = pairs_.parts;  // the scene's, as when saved
   WallContacts walls;
   broadphase::CandidatePairs candidates;
   std::vector<Vec3> reference;
@@ -238,6 +238,9 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   if (spectra.size() != (spectra_ ? 1u : 0u)) r.fail("collision spectra do not match the scene's");
   if (!r.done()) r.fail("unexpected bytes after the last field");
   if (state.size() != state_.size()) r.fail("particle count differs from the scene's");
+  bool same_counts = true;
+  PairContacts::for_each_array(pairs.parts, [&](auto field) { same_counts = same_counts && (pairs.*field).size() == pairs.size(); });
+  if (!same_counts) r.fail("damaged contact list");
   if (!broadphase::is_valid(candidates, state.size())) r.fail("damaged neighbour list");
   // Everything read and checked: commit.
   clock_ = clock;

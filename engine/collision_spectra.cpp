@@ -33,7 +33,7 @@ double CollisionSpectra::bin_low(int b) { return lowest_energy * std::pow(10.0, 
 
 void CollisionSpectra::record(Kind kind, const ContactHistory& history, Real work, Real elastic) {
   // As in the World's books: dissipated = work - elastic, the normal work including the step on
-  // which the contact parted (contacts.cpp, book_release); the rest of the loss is tangential and rolling.
+  // which the contact parted (contacts.cpp, release_work); the rest of the loss is tangential and rolling.
   const double normal = history.normal_work - history.normal_elastic;
   const double tangential = (work - elastic) - normal;
   const double values[quantity_count] = {std::max(history.impact_energy, Real(0)), normal, tangential};
@@ -47,8 +47,8 @@ void CollisionSpectra::record(Kind kind, const ContactHistory& history, Real wor
   dissipated_ += normal + tangential;
 }
 
-void CollisionSpectra::record_ended(const PairContacts& before, const PairContacts& after) {
-  for_each_ended(before.key, after.key, [&](std::size_t k) { record(ball_ball, before.history[k], before.work[k], before.elastic[k]); });
+void CollisionSpectra::record_ended(const PairContacts& before, const std::vector<std::uint64_t>& after_key) {
+  for_each_ended(before.key, after_key, [&](std::size_t k) { record(ball_ball, before.history(k), before.work[k], before.elastic[k]); });
 }
 
 void CollisionSpectra::record_ended(const WallContacts& before, const WallContacts& after) {

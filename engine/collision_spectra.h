@@ -28,7 +28,7 @@ class CollisionSpectra {
   static constexpr double lowest_energy = 1e-15;  // [J]
 
   /// Books the contacts of `before` that `after` no longer holds (both sorted by key).
-  void record_ended(const PairContacts& before, const PairContacts& after);
+  void record_ended(const PairContacts& before, const std::vector<std::uint64_t>& after_key);
   void record_ended(const WallContacts& before, const WallContacts& after);
 
   /// Books one ended contact (its history, work and elastic energy at its last evaluation).

@@ -153,6 +153,8 @@ inline Vec3 rolling_spring(Vec3& spring, std::uint8_t& mode, const Vec3& rate, R
 
 template <Separation Sep, bool Friction, RollingKind Rolling>
 struct LinearSpringDashpot {
+  static constexpr bool friction = Friction;
+  static constexpr bool rolling = Rolling != RollingKind::none;
   static constexpr bool uses_rotation = Friction || Rolling != RollingKind::none;
 
   static ContactResponse evaluate(const LawConstants& c, const ContactKinematics& k, ContactHistory& history,
@@ -203,7 +205,7 @@ struct LinearSpringDashpot {
     // every undamped impact as dissipating ~(omega0 h)^2 of its energy, always positive, until the
     // books flagged growth that never happened. So the spring is booked from delta = 0; the
     // dashpot keeps the whole step (what the particles exchange with it). The step on which a
-    // contact parts is booked likewise when it leaves the list (contacts.cpp, book_release).
+    // contact parts is booked likewise when it leaves the list (contacts.cpp, release_work).
     const bool spring_active = fn > 0 || Sep == Separation::overlap;
     if (k.onset && spring_active && h > 0) {
       const Real start = k.overlap - h * k.overlap_rate;

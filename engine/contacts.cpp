@@ -3,23 +3,38 @@
 #include <algorithm>
 #include <limits>
 
+#include "engine/capacity.h"
 #include "engine/checks.h"
 #include "engine/parallel.h"
 
 namespace dem {
 
 void PairContacts::resize(std::size_t n) {
-  key.resize(n);
-  i.resize(n);
-  j.resize(n);
-  constants.resize(n);
-  history.resize(n);
-  overlap.resize(n);
-  work.resize(n);
-  elastic.resize(n);
-  force.resize(n);
-  torque_i.resize(n);
-  torque_j.resize(n);
+  for_each_array(parts, [&](auto field) { resize_with_headroom(this->*field, n); });
+}
+
+ContactHistory PairContacts::history(std::size_t k) const {
+  ContactHistory h;
+  if (parts.friction) h.tangential_spring = tangential_spring[k];
+  if (parts.rolling) h.rolling_spring = rolling_spring[k];
+  h.mode = mode[k];
+  if (parts.books) {
+    h.normal_work = books[k].normal_work;
+    h.normal_elastic = books[k].normal_elastic;
+    h.impact_energy = books[k].impact_energy;
+  }
+  return h;
+}
+
+void PairContacts::set_history(std::size_t k, const ContactHistory& h) {
+  if (parts.friction) tangential_spring[k] = h.tangential_spring;
+  if (parts.rolling) rolling_spring[k] = h.rolling_spring;
+  mode[k] = h.mode;
+  if (parts.books) books[k] = {h.normal_work, h.normal_elastic, h.impact_energy};
+}
+
+void copy_pair(const PairContacts& a, std::size_t from, PairContacts& b, std::size_t to) {
+  PairContacts::for_each_array(a.parts, [&](auto field) { (b.*field)[to] = (a.*field)[from]; });
 }
 
 void PairContacts::index_rows(std::size_t particle_count) {
@@ -29,19 +44,18 @@ void PairContacts::index_rows(std::size_t particle_count) {
 }
 
 void WallContacts::resize(std::size_t n) {
-  key.resize(n);
-  particle.resize(n);
-  wall.resize(n);
-  feature.resize(n);
-  constants.resize(n);
-  history.resize(n);
-  overlap.resize(n);
-  work.resize(n);
-  elastic.resize(n);
-  point.resize(n);
-  force.resize(n);
-  torque.resize(n);
-  rolling_torque.resize(n);
+  resize_with_headroom(key, n);
+  resize_with_headroom(particle, n);
+  resize_with_headroom(wall, n);
+  resize_with_headroom(feature, n);
+  resize_with_headroom(history, n);
+  resize_with_headroom(overlap, n);
+  resize_with_headroom(work, n);
+  resize_with_headroom(elastic, n);
+  resize_with_headroom(point, n);
+  resize_with_headroom(force, n);
+  resize_with_headroom(torque, n);
+  resize_with_headroom(rolling_torque, n);
 }
 
 namespace {
@@ -53,31 +67,39 @@ bool overlapping(const State& s, ParticleIndex a, ParticleIndex b) {
   return (s.position[a] - s.position[b]).squaredNorm() < reach * reach;
 }
 
-/// Books the step on which a contact parted, now that it has left the list: its normal spring gives
-/// back what it held (from delta_last to 0, as the onset is booked from 0: contact_law.h), and its
-/// dashpot, whose last force velocity Verlet still applies over that step, is booked by the
-/// trapezoid over the step, (F_n - k delta_last) (delta_now - delta_last) / 2. Under force_zero a
-/// clamped force holds no spring and exerts none. The tangential and rolling springs keep the old
-/// rule: what they hold is taken as given back.
-void book_release(Real normal_force, Real overlap_now, const LawConstants& law, Real overlap_last,
-                  ContactHistory& history, Real& work, Real& elastic) {
-  const Real spring = history.normal_elastic > 0 ? law.k_n * overlap_last : 0;
-  const Real release = 0.5 * (normal_force - spring) * (overlap_now - overlap_last) - history.normal_elastic;
-  work += release;
-  history.normal_work += release;
-  elastic -= history.normal_elastic;
-  history.normal_elastic = 0;
+/// The work of the step on which a contact parted, booked now that it has left the list. Velocity
+/// Verlet still applies the contact's last force over that step, as it applied the first one over
+/// the step on which the contact formed. Both are booked for the normal spring from delta = 0
+/// (contact_law.h, onset): the spring gives back what it held, which its books already take as
+/// given back; the dashpot's share of the last force, F_n - k delta_last, is booked by the trapezoid
+/// over the step to delta_now. A force_zero contact whose force is clamped (zero) exerts none. The
+/// tangential and rolling springs keep the old rule: what they hold is taken as given back.
+Real release_work(Real normal_force, Real k_n, Real overlap_now, Real overlap_last) {
+  const Real spring = normal_force != 0 ? k_n * overlap_last : 0;
+  return 0.5 * (normal_force - spring) * (overlap_now - overlap_last);
 }
 
-/// Books the release step of a pair contact that has just ended (book_release) and returns what the
-/// contact dissipated over its life [J].
-Real end_pair_contact(const State& s, PairContacts& c, std::uint32_t k) {
-  const ParticleIndex i = c.i[k], j = c.j[k];
-  const Vec3 d = s.position[i] - s.position[j];
-  const Real dist = d.norm();
-  const Vec3 n = dist > 0 ? Vec3(d / dist) : Vec3(Vec3::UnitX());
-  const Real overlap_now = s.radius[i] + s.radius[j] - dist;
-  book_release(c.force[k].dot(n), overlap_now, c.constants[k], c.overlap[k], c.history[k], c.work[k], c.elastic[k]);
+/// Books the release step of pair contact k of row a (its smaller slot) and returns what the contact
+/// dissipated over its life [J]. The old slots i, j have been overwritten with the new list's by
+/// now: the partner is found by id among row a's candidates (a pair that has just parted is within
+/// the skin); should it not be there, the release step stays unbooked.
+Real end_pair_contact(const State& s, const broadphase::CandidatePairs& candidates, const MaterialTable& materials,
+                      ParticleIndex a, PairContacts& c, std::uint32_t k) {
+  const ParticleId lo = static_cast<ParticleId>(c.key[k] >> 32), hi = static_cast<ParticleId>(c.key[k] & 0xffffffffu);
+  const ParticleId partner = s.id[a] == lo ? hi : lo;
+  for (std::uint32_t q = candidates.row_start[a]; q < candidates.row_start[a + 1]; ++q) {
+    const ParticleIndex b = candidates.partner[q];
+    if (s.id[b] != partner) continue;
+    const ParticleIndex i = s.id[a] == lo ? a : b, j = s.id[a] == lo ? b : a;  // the force is on i
+    const Vec3 d = s.position[i] - s.position[j];
+    const Real dist = d.norm();
+    const Vec3 n = dist > 0 ? Vec3(d / dist) : Vec3(Vec3::UnitX());
+    const Real k_n = materials.params(materials.pair_class(s.material[i], s.material[j])).k_n;
+    const Real release = release_work(c.force[k].dot(n), k_n, s.radius[i] + s.radius[j] - dist, c.overlap[k]);
+    c.work[k] += release;
+    if (c.parts.books) c.books[k].normal_work += release;
+    break;
+  }
   return c.work[k] - c.elastic[k];
 }
 
@@ -85,13 +107,16 @@ Real end_pair_contact(const State& s, PairContacts& c, std::uint32_t k) {
 /// geometry at a larger radius gives the (negative) overlap now: a feature touched at radius r is
 /// touched at any larger one (walls.h). A particle more than its radius clear of the feature after
 /// one step keeps the old rule.
-void end_wall_contact(const State& s, const Walls& walls, WallContacts& c, std::size_t k) {
+void end_wall_contact(const State& s, const Walls& walls, const MaterialTable& materials, WallContacts& c,
+                      std::size_t k) {
   const ParticleIndex p = c.particle[k];
   const Real r = s.radius[p];
   WallTouch touch;
   if (!walls.touch(c.wall[k], c.feature[k], s.position[p], 2 * r, touch)) return;
-  book_release(c.force[k].dot(touch.normal), touch.overlap - r, c.constants[k], c.overlap[k], c.history[k],
-               c.work[k], c.elastic[k]);
+  const Real k_n = materials.params(materials.pair_class(s.material[p], walls.material(c.wall[k]))).k_n;
+  const Real release = release_work(c.force[k].dot(touch.normal), k_n, touch.overlap - r, c.overlap[k]);
+  c.work[k] += release;
+  c.history[k].normal_work += release;
 }
 
 /// Index of `key` in the ascending `keys`, or -1.
@@ -106,8 +131,54 @@ Real live_dissipation(const std::vector<Real>& work, const std::vector<Real>& el
   return block_sum<Real>(work.size(), [&](std::size_t k) { return work[k] - elastic[k]; });
 }
 
+namespace {
+
+constexpr std::uint32_t no_source = 0xffffffffu;  // a new contact: nothing to inherit
+constexpr std::size_t carry_chunk = 4096;          // contacts moved per pass of two parallel loops
+
+// Moves what the surviving contacts carry from their old slots to their new ones, in place. Sources
+// ascend with the new slots (both lists are in key order), so a contact moving to the front never
+// overwrites an old slot that one moving to the back has still to read, nor the reverse; those moving
+// to the front go front to back, those moving to the back go back to front, a chunk at a time
+// through `carry` (within a chunk reads and writes may overlap). New contacts start empty, last.
+void move_carried(PairContacts& c, const std::vector<std::uint32_t>& source, PairContacts& carry) {
+  const std::size_t m = source.size();
+  carry.parts = c.parts;
+  const std::size_t chunk = std::min(m, carry_chunk);  // a small list needs no full chunk
+  PairContacts::for_each_carried(c.parts, [&](auto field) { (carry.*field).resize(chunk); });
+  const auto move_chunk = [&](std::size_t k0, std::size_t k1, auto&& moves) {
+    parallel_for(k1 - k0, [&](std::size_t q) {
+      if (!moves(k0 + q)) return;
+      const std::size_t from = source[k0 + q];
+      PairContacts::for_each_carried(c.parts, [&](auto field) { (carry.*field)[q] = (c.*field)[from]; });
+    });
+    parallel_for(k1 - k0, [&](std::size_t q) {
+      if (!moves(k0 + q)) return;
+      PairContacts::for_each_carried(c.parts, [&](auto field) { (c.*field)[k0 + q] = (carry.*field)[q]; });
+    });
+  };
+  const auto to_front = [&](std::size_t k) { return source[k] != no_source && source[k] > k; };
+  const auto to_back = [&](std::size_t k) { return source[k] != no_source && source[k] < k; };
+  for (std::size_t k0 = 0; k0 < m; k0 += carry_chunk) move_chunk(k0, std::min(m, k0 + carry_chunk), to_front);
+  for (std::size_t k1 = m; k1 > 0;) {
+    const std::size_t k0 = k1 - std::min(k1, carry_chunk);
+    move_chunk(k0, k1, to_back);
+    k1 = k0;
+  }
+  parallel_for(m, [&](std::size_t k) {
+    if (source[k] != no_source) return;
+    c.set_history(k, ContactHistory{});
+    c.work[k] = 0;
+    c.elastic[k] = 0;
+    c.overlap[k] = 0;
+    c.force[k].setZero();
+  });
+}
+
+}  // namespace
+
 Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& candidates, const MaterialTable& materials,
-                          PairContacts& contacts, ContactWorkspace& work) {
+                          PairContacts& contacts, ContactWorkspace& work, const EndedPairsHook& on_ended) {
   const std::size_t n = candidates.row_count();
   DEM_ASSERT(n == s.size());
   work.count.resize(n);
@@ -118,58 +189,50 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
     work.count[a] = c;
   });
   exclusive_scan(work.count, work.offset);
-  PairContacts& fresh = work.pairs;
-  fresh.resize(work.offset[n]);
+  const std::vector<std::uint32_t>& row_start = work.offset;  // of the new list
+  const std::size_t m = row_start[n];
+  if (contacts.row_start.size() != n + 1) contacts.index_rows(n);  // the last use of the old i, j
+  resize_with_headroom(work.key, m), resize_with_headroom(contacts.i, m), resize_with_headroom(contacts.j, m);
   parallel_for(n, [&](std::size_t a) {
-    std::uint32_t slot = work.offset[a];
+    std::uint32_t slot = row_start[a];
     for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
       const ParticleIndex b = candidates.partner[k];
       if (!overlapping(s, static_cast<ParticleIndex>(a), b)) continue;
       // Slots follow ids; with slots in id order a row of ascending partners is ascending in key.
       const bool a_first = s.id[a] < s.id[b];
-      fresh.i[slot] = a_first ? static_cast<ParticleIndex>(a) : b;
-      fresh.j[slot] = a_first ? b : static_cast<ParticleIndex>(a);
-      fresh.key[slot] = pair_key(s.id[a], s.id[b]);
+      contacts.i[slot] = a_first ? static_cast<ParticleIndex>(a) : b;
+      contacts.j[slot] = a_first ? b : static_cast<ParticleIndex>(a);
+      work.key[slot] = pair_key(s.id[a], s.id[b]);
       ++slot;
     }
   });
-  DEM_VALIDATE(std::is_sorted(fresh.key.begin(), fresh.key.end()));
-  fresh.row_start = work.offset;
-  if (contacts.row_start.size() != n + 1) contacts.index_rows(n);
-  // Inherit history row by row: old and new contacts of a row are both ascending in key, so a
-  // linear merge pairs them up (streaming, no search); old ones left over have ended.
+  DEM_VALIDATE(std::is_sorted(work.key.begin(), work.key.end()));
+  // Match row by row: old and new contacts of a row are both ascending in key, so a linear merge
+  // pairs them up (streaming, no search); old ones left over have ended.
+  resize_with_headroom(work.source, m);
   work.row_ended.resize(n);
   parallel_for(n, [&](std::size_t a) {
     std::uint32_t old = contacts.row_start[a];
     const std::uint32_t old_end = contacts.row_start[a + 1];
     Real ended = 0;
-    for (std::uint32_t k = fresh.row_start[a]; k < fresh.row_start[a + 1]; ++k) {
-      while (old < old_end && contacts.key[old] < fresh.key[k]) ended += end_pair_contact(s, contacts, old++);
-      if (old < old_end && contacts.key[old] == fresh.key[k]) {
-        fresh.constants[k] = contacts.constants[old];
-        fresh.history[k] = contacts.history[old];
-        fresh.work[k] = contacts.work[old];
-        fresh.elastic[k] = contacts.elastic[old];
-        fresh.overlap[k] = contacts.overlap[old];
-        fresh.force[k] = contacts.force[old];
-        ++old;
-        continue;
-      }
-      const ParticleIndex i = fresh.i[k], j = fresh.j[k];
-      const EffectiveMasses m = effective_masses(s.inv_mass[i], s.inv_inertia[i], s.radius[i], s.inv_mass[j],
-                                                 s.inv_inertia[j], s.radius[j]);
-      fresh.constants[k] = materials.constants(materials.pair_class(s.material[i], s.material[j]), m);
-      fresh.history[k] = ContactHistory{};
-      fresh.work[k] = 0;
-      fresh.elastic[k] = 0;
-      fresh.overlap[k] = 0;
-      fresh.force[k].setZero();
+    for (std::uint32_t k = row_start[a]; k < row_start[a + 1]; ++k) {
+      while (old < old_end && contacts.key[old] < work.key[k])
+        ended += end_pair_contact(s, candidates, materials, static_cast<ParticleIndex>(a), contacts, old++);
+      const bool inherits = old < old_end && contacts.key[old] == work.key[k];
+      work.source[k] = inherits ? old++ : no_source;
     }
-    for (; old < old_end; ++old) ended += end_pair_contact(s, contacts, old);
+    for (; old < old_end; ++old)
+      ended += end_pair_contact(s, candidates, materials, static_cast<ParticleIndex>(a), contacts, old);
     work.row_ended[a] = ended;
   });
   const Real ended = block_sum<Real>(n, [&](std::size_t a) { return work.row_ended[a]; });
-  std::swap(contacts, fresh);
+  if (on_ended) on_ended(contacts, work.key);
+  const std::size_t reach = std::max(contacts.size(), m);  // old slots are read, new ones written
+  PairContacts::for_each_carried(contacts.parts, [&](auto field) { resize_with_headroom(contacts.*field, reach); });
+  move_carried(contacts, work.source, work.carry);
+  contacts.key.swap(work.key);
+  contacts.row_start.swap(work.offset);
+  contacts.resize(m);  // drops the old tail; torques wait for the force loop
   return ended;
 }
 
@@ -199,16 +262,12 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
         fresh.wall[slot] = static_cast<std::uint32_t>(w);
         const std::ptrdiff_t old = find_key(contacts.key, fresh.key[slot]);
         if (old >= 0) {
-          fresh.constants[slot] = contacts.constants[old];
           fresh.history[slot] = contacts.history[old];
           fresh.work[slot] = contacts.work[old];
           fresh.elastic[slot] = contacts.elastic[old];
           fresh.overlap[slot] = contacts.overlap[old];
           fresh.force[slot] = contacts.force[old];
         } else {
-          const EffectiveMasses m = effective_masses(s.inv_mass[p], s.inv_inertia[p], s.radius[p], 0, 0,
-                                                     std::numeric_limits<Real>::infinity());
-          fresh.constants[slot] = materials.constants(materials.pair_class(s.material[p], walls.material(w)), m);
           fresh.history[slot] = ContactHistory{};
           fresh.work[slot] = 0;
           fresh.elastic[slot] = 0;
@@ -221,7 +280,7 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
   });
   DEM_VALIDATE(std::is_sorted(fresh.key.begin(), fresh.key.end()));
   parallel_for(contacts.size(), [&](std::size_t k) {
-    if (find_key(fresh.key, contacts.key[k]) < 0) end_wall_contact(s, walls, contacts, k);
+    if (find_key(fresh.key, contacts.key[k]) < 0) end_wall_contact(s, walls, materials, contacts, k);
   });
   const Real ended = live_dissipation(contacts.work, contacts.elastic) - live_dissipation(fresh.work, fresh.elastic);
   std::swap(contacts, fresh);
@@ -236,7 +295,7 @@ void build_pair_adjacency(std::size_t particle_count, const PairContacts& contac
     ++start[contacts.j[k] + 1];
   }
   for (std::size_t p = 0; p < particle_count; ++p) start[p + 1] += start[p];
-  adjacency.pair_entry.resize(start[particle_count]);
+  resize_with_headroom(adjacency.pair_entry, start[particle_count]);
   // Contacts are sorted by (smaller id, larger id): walking them in order appends, for every
   // particle, first its smaller-id partners ascending, then its larger-id partners ascending.
   auto& cursor = adjacency.cursor;

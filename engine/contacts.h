@@ -1,12 +1,14 @@
 #pragma once
 // Contacts from candidate pairs and walls. Both lists are structures of arrays sorted by a 64-bit key
-// (types.h: pair_key, wall_key); a new list inherits history (springs, modes) and per-contact
-// constants from the old one by key lookup, so history survives grid rebuilds unchanged.
+// (types.h: pair_key, wall_key); a new list inherits history (springs, modes) from the old one by
+// key lookup, so history survives grid rebuilds unchanged. The law's constants are not stored: the
+// force loops get them from the material table (MaterialTable::law_constants).
 // Reads: positions, radii, masses (State), candidate pairs, walls. Writes: the contact lists and
 // the per-particle adjacency used to gather forces.
 // Threading: counts, scan and fills are per row (particle), each writing only its own range, so the
 // lists are identical for any thread count.
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "broadphase/candidate_pairs.h"
@@ -17,17 +19,39 @@
 
 namespace dem {
 
+/// Parts of a pair contact that only some runs use. A list stores only the parts its run needs
+/// (DESIGN.md, Models: what is not declared is not computed); a missing part reads as its start
+/// value (zero springs, no books), which is all it would ever hold.
+struct ContactParts {
+  bool friction = true;  // tangential spring
+  bool rolling = true;   // rolling spring and rolling torque
+  bool books = true;     // the normal spring's energy books, for collision spectra
+};
+
+/// The energy books of ContactHistory (PHYSICS.md 7), stored apart: only collision spectra read them.
+struct EnergyBooks {
+  Real normal_work = 0;     // [J]
+  Real normal_elastic = 0;  // [J]
+  Real impact_energy = -1;  // [J]; negative until the first evaluation
+};
+
+/// Pair contacts as a structure of arrays; the history (ContactHistory) is split by part.
 struct PairContacts {
+  ContactParts parts;
   std::vector<std::uint64_t> key;   // pair_key(id_i, id_j), ascending
   std::vector<ParticleIndex> i, j;  // slots, id_i < id_j
-  std::vector<LawConstants> constants;
-  std::vector<ContactHistory> history;
+  std::vector<Vec3> tangential_spring;  // parts.friction [m]
+  std::vector<Vec3> rolling_spring;     // parts.rolling [rad]
+  std::vector<std::uint8_t> mode;       // ContactMode bits
+  std::vector<EnergyBooks> books;       // parts.books
   std::vector<Real> overlap;        // at the last force evaluation [m]
   std::vector<Real> work;           // work done on the contact since it formed [J]
   std::vector<Real> elastic;        // energy in its springs at the last evaluation [J]
   std::vector<Vec3> force;          // on i; j gets the negative [N]
-  std::vector<Vec3> torque_i;       // [N m]
-  std::vector<Vec3> torque_j;       // [N m]
+  // Torques are summed from these in the gather: on i -a_i lever + rolling_torque, on j
+  // -a_j lever - rolling_torque, lever arms a = r - overlap / 2 (one vector less per contact).
+  std::vector<Vec3> lever;           // n x force [N]
+  std::vector<Vec3> rolling_torque;  // parts.rolling: on i [N m]
   // Contacts found from candidate row a (a = the smaller slot of the pair) are the slots
   // row_start[a] .. row_start[a+1], ascending in key: history is inherited row by row.
   std::vector<std::uint32_t> row_start;
@@ -36,14 +60,38 @@ struct PairContacts {
   void resize(std::size_t n);
   /// Recomputes row_start from i and j (after a checkpoint is loaded).
   void index_rows(std::size_t particle_count);
+  /// The history of contact k, missing parts at their start values.
+  ContactHistory history(std::size_t k) const;
+  void set_history(std::size_t k, const ContactHistory& h);
+
+  /// Calls f(&PairContacts::field) for each per-contact array a list with these parts holds that a
+  /// contact carries into the next list (history, books, overlap, work, elastic, force).
+  template <class F>
+  static void for_each_carried(const ContactParts& parts, F&& f) {
+    if (parts.friction) f(&PairContacts::tangential_spring);
+    if (parts.rolling) f(&PairContacts::rolling_spring);
+    f(&PairContacts::mode);
+    if (parts.books) f(&PairContacts::books);
+    f(&PairContacts::overlap), f(&PairContacts::work), f(&PairContacts::elastic), f(&PairContacts::force);
+  }
+  /// The same for every per-contact array it holds (row_start is per row).
+  template <class F>
+  static void for_each_array(const ContactParts& parts, F&& f) {
+    f(&PairContacts::key), f(&PairContacts::i), f(&PairContacts::j);
+    for_each_carried(parts, f);
+    f(&PairContacts::lever);
+    if (parts.rolling) f(&PairContacts::rolling_torque);
+  }
 };
+
+/// Copies every field of contact `from` of `a` into slot `to` of `b` (lists with the same parts).
+void copy_pair(const PairContacts& a, std::size_t from, PairContacts& b, std::size_t to);
 
 struct WallContacts {
   std::vector<std::uint64_t> key;  // wall_key(id, wall, feature), ascending
   std::vector<ParticleIndex> particle;
   std::vector<std::uint32_t> wall;
   std::vector<std::uint32_t> feature;
-  std::vector<LawConstants> constants;
   std::vector<ContactHistory> history;
   std::vector<Real> overlap;  // [m]
   std::vector<Real> work;     // work done on the contact since it formed [J]
@@ -71,14 +119,25 @@ struct ContactWorkspace {
   std::vector<std::uint32_t> count;
   std::vector<std::uint32_t> offset;
   std::vector<Real> row_ended;  // per row: what its ended contacts dissipated [J]
-  PairContacts pairs;
+  // update_pair_contacts: the new list's keys (after the call, the old list's), and per new contact
+  // its slot in the old list; the rest of a contact moves in place, through `carry`.
+  std::vector<std::uint64_t> key;
+  std::vector<std::uint32_t> source;
+  PairContacts carry;  // the carried arrays only, one chunk long
+  PairContacts pairs;  // step doubling's new list (world_doubling.cpp)
   WallContacts walls;
 };
 
-/// Replaces `contacts` by the overlapping candidate pairs, inheriting history by key. Returns the
-/// energy dissipated by the contacts that ended (their work minus what their springs held) [J].
+/// Called by update_pair_contacts while the old list's keys and carried fields are still whole
+/// (its i and j already hold the new list's), with the new list's keys.
+using EndedPairsHook = std::function<void(const PairContacts& before, const std::vector<std::uint64_t>& after_key)>;
+
+/// Replaces `contacts` by the overlapping candidate pairs, inheriting history by key, in place: only
+/// the keys are built beside the old list (the old slots i, j are not needed: they are overwritten). Returns the energy dissipated by the contacts
+/// that ended (their work minus what their springs held) [J]. The torques are left for the force loop.
 Real update_pair_contacts(const State& state, const broadphase::CandidatePairs& candidates,
-                          const MaterialTable& materials, PairContacts& contacts, ContactWorkspace& work);
+                          const MaterialTable& materials, PairContacts& contacts, ContactWorkspace& work,
+                          const EndedPairsHook& on_ended = {});
 
 /// Replaces `contacts` by the current particle-wall overlaps, inheriting history by key. Returns the
 /// energy dissipated by the contacts that ended [J].

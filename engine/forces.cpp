@@ -1,14 +1,42 @@
 #include "engine/forces.h"
 
 #include <cmath>
+#include <limits>
 
+#include "engine/checks.h"
 #include "engine/parallel.h"
 
 namespace dem {
 namespace {
 
+// A pair contact's history as the law sees it (PairContacts::history, with the parts fixed by the
+// law at compile time: the list holds exactly those, pair_forces checks); the energy books only
+// when the list keeps them (collision spectra).
 template <class Law>
-void pair_forces(const State& s, PairContacts& c, Real h) {
+ContactHistory load_history(const PairContacts& c, std::size_t k, bool books) {
+  ContactHistory h;
+  if constexpr (Law::friction) h.tangential_spring = c.tangential_spring[k];
+  if constexpr (Law::rolling) h.rolling_spring = c.rolling_spring[k];
+  h.mode = c.mode[k];
+  if (books) {
+    const EnergyBooks& b = c.books[k];
+    h.normal_work = b.normal_work, h.normal_elastic = b.normal_elastic, h.impact_energy = b.impact_energy;
+  }
+  return h;
+}
+
+template <class Law>
+void store_history(PairContacts& c, std::size_t k, bool books, const ContactHistory& h) {
+  if constexpr (Law::friction) c.tangential_spring[k] = h.tangential_spring;
+  if constexpr (Law::rolling) c.rolling_spring[k] = h.rolling_spring;
+  c.mode[k] = h.mode;
+  if (books) c.books[k] = {h.normal_work, h.normal_elastic, h.impact_energy};
+}
+
+template <class Law>
+void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c, Real h) {
+  DEM_ASSERT(c.parts.friction == Law::friction && c.parts.rolling == Law::rolling);
+  const bool books = c.parts.books;
   parallel_for(c.size(), [&](std::size_t k) {
     const ParticleIndex i = c.i[k], j = c.j[k];
     const Vec3 d = s.position[i] - s.position[j];
@@ -16,7 +44,7 @@ void pair_forces(const State& s, PairContacts& c, Real h) {
     // Coincident centres have no normal; any fixed choice keeps runs deterministic.
     const Vec3 n = dist > 0 ? Vec3(d / dist) : Vec3(Vec3::UnitX());
     const Real overlap = s.radius[i] + s.radius[j] - dist;
-    const Real arm_i = s.radius[i] - 0.5 * overlap, arm_j = s.radius[j] - 0.5 * overlap;
+    const Real arm_i = s.radius[i] - 0.5 * overlap, arm_j = s.radius[j] - 0.5 * overlap;  // as gather_forces
     Vec3 u = s.velocity[i] - s.velocity[j];
     Vec3 w_rel = Vec3::Zero();
     if constexpr (Law::uses_rotation) {
@@ -32,27 +60,31 @@ void pair_forces(const State& s, PairContacts& c, Real h) {
     kin.overlap_rate = -u.dot(n);
     kin.tangential_velocity = u + kin.overlap_rate * n;
     kin.rolling_velocity = w_rel;
-    ContactHistory& history = c.history[k];
-    kin.onset = history.impact_energy < 0;
+    kin.onset = c.overlap[k] == 0;  // a new contact: no evaluation has stored its overlap yet
+    ContactHistory history = load_history<Law>(c, k, books);
     const Real inv_m = s.inv_mass[i] + s.inv_mass[j];  // two fixed particles: no impact energy
-    if (history.impact_energy < 0) history.impact_energy = inv_m > 0 ? 0.5 * kin.overlap_rate * kin.overlap_rate / inv_m : 0;
-    const ContactResponse r = Law::evaluate(c.constants[k], kin, history, h);
+    if (books && history.impact_energy < 0)
+      history.impact_energy = inv_m > 0 ? 0.5 * kin.overlap_rate * kin.overlap_rate / inv_m : 0;
+    const LawConstants constants = materials.law_constants<Law::friction, Law::rolling>(
+        materials.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i], s.radius[i], s.inv_mass[j],
+        s.inv_inertia[j], s.radius[j]);
+    const ContactResponse r = Law::evaluate(constants, kin, history, h);
     history.normal_work += h * r.normal_power;
     history.normal_elastic = r.normal_elastic;
+    store_history<Law>(c, k, books, history);
     c.overlap[k] = overlap;
     c.work[k] += h * r.power;
     c.elastic[k] = r.elastic;
     c.force[k] = r.force;
     if constexpr (Law::uses_rotation) {
-      const Vec3 lever = n.cross(r.force);  // only the tangential part of the force has a moment
-      c.torque_i[k] = -arm_i * lever + r.rolling_torque;
-      c.torque_j[k] = -arm_j * lever - r.rolling_torque;
+      c.lever[k] = n.cross(r.force);  // only the tangential part of the force has a moment
+      if constexpr (Law::rolling) c.rolling_torque[k] = r.rolling_torque;
     }
   });
 }
 
 template <class Law>
-void wall_forces(const State& s, const Walls& walls, WallContacts& c, Real h) {
+void wall_forces(const State& s, const MaterialTable& materials, const Walls& walls, WallContacts& c, Real h) {
   parallel_for(c.size(), [&](std::size_t k) {
     const ParticleIndex p = c.particle[k];
     const std::uint32_t w = c.wall[k];
@@ -84,10 +116,13 @@ void wall_forces(const State& s, const Walls& walls, WallContacts& c, Real h) {
     kin.overlap_rate = -u.dot(n);
     kin.tangential_velocity = u + kin.overlap_rate * n;
     kin.rolling_velocity = w_rel;
+    kin.onset = c.overlap[k] == 0;  // a new contact (or one whose touch failed last time)
     ContactHistory& history = c.history[k];
-    kin.onset = history.impact_energy < 0;
     if (history.impact_energy < 0) history.impact_energy = 0.5 * kin.overlap_rate * kin.overlap_rate / s.inv_mass[p];
-    const ContactResponse r = Law::evaluate(c.constants[k], kin, history, h);
+    const LawConstants constants = materials.law_constants<Law::friction, Law::rolling>(
+        materials.pair_class(s.material[p], walls.material(w)), s.inv_mass[p], s.inv_inertia[p], s.radius[p], 0, 0,
+        std::numeric_limits<Real>::infinity());
+    const ContactResponse r = Law::evaluate(constants, kin, history, h);
     history.normal_work += h * r.normal_power;
     history.normal_elastic = r.normal_elastic;
     c.overlap[k] = touch.overlap;
@@ -133,17 +168,24 @@ ForceKernels select_force_kernels(Separation separation, bool friction, RollingK
 
 void gather_forces(State& s, const PairContacts& pairs, const WallContacts& walls, const ContactAdjacency& adjacency,
                    bool rotation, int dimension) {
+  const bool rolling = pairs.parts.rolling;
   parallel_for(s.size(), [&](std::size_t p) {
     Vec3 f = Vec3::Zero(), t = Vec3::Zero();
     for (std::uint32_t e = adjacency.pair_start[p]; e < adjacency.pair_start[p + 1]; ++e) {
       const std::uint32_t entry = adjacency.pair_entry[e];
       const std::uint32_t k = entry >> 1;
-      if ((entry & 1) == 0) {
+      const bool is_i = (entry & 1) == 0;
+      if (is_i)
         f += pairs.force[k];
-        if (rotation) t += pairs.torque_i[k];
-      } else {
+      else
         f -= pairs.force[k];
-        if (rotation) t += pairs.torque_j[k];
+      if (rotation) {
+        // The torque pair_forces would have stored: -a lever, plus or minus the rolling torque. Without
+        // rolling it lacks only the "+ 0", which changes nothing in a sum that starts at +0.
+        const Real arm = s.radius[p] - 0.5 * pairs.overlap[k];
+        Vec3 torque = -arm * pairs.lever[k];
+        if (rolling) torque += is_i ? pairs.rolling_torque[k] : Vec3(-pairs.rolling_torque[k]);
+        t += torque;
       }
     }
     for (std::uint32_t k = adjacency.wall_start[p]; k < adjacency.wall_start[p + 1]; ++k) {

@@ -1,6 +1,7 @@
 #pragma once
 // The force loops (as Box2D's solver.c: orchestration here, the math in contact_law.h).
-// compute_*_contact_forces read positions and velocities, evaluate each contact once and write the
+// compute_*_contact_forces read positions and velocities, evaluate each contact once (its law constants
+// from the material table, MaterialTable::law_constants) and write the
 // contact's own slots (force, torques, history); gather_forces then sums, per particle, the
 // contributions in ascending partner order (pairs, then walls in key order), so the sums are
 // bitwise identical for any thread count and momentum is exchanged exactly.
@@ -13,8 +14,8 @@ namespace dem {
 
 /// The loops of one run, instantiated for the run's contact law (chosen once, never per contact).
 struct ForceKernels {
-  void (*pair_forces)(const State&, PairContacts&, Real h) = nullptr;
-  void (*wall_forces)(const State&, const Walls&, WallContacts&, Real h) = nullptr;
+  void (*pair_forces)(const State&, const MaterialTable&, PairContacts&, Real h) = nullptr;
+  void (*wall_forces)(const State&, const MaterialTable&, const Walls&, WallContacts&, Real h) = nullptr;
   bool uses_rotation = false;
 };
 

@@ -17,8 +17,8 @@ void evaluate_forces(IslandState& s, const broadphase::CandidatePairs& candidate
   build_pair_adjacency(st.size(), s.pairs, s.adjacency);
   s.ended_dissipation +=
       update_wall_contacts(st, scratch.walls, *physics.materials, s.walls, scratch.contacts, s.adjacency.wall_start);
-  physics.kernels.pair_forces(st, s.pairs, h);
-  physics.kernels.wall_forces(st, scratch.walls, s.walls, h);
+  physics.kernels.pair_forces(st, *physics.materials, s.pairs, h);
+  physics.kernels.wall_forces(st, *physics.materials, scratch.walls, s.walls, h);
   gather_forces(st, s.pairs, s.walls, s.adjacency, physics.kernels.uses_rotation, physics.dimension);
 }
 
@@ -105,8 +105,7 @@ bool same_contacts(const IslandState& start, const IslandState& full, const Isla
   if (start.pairs.key != half.pairs.key || full.pairs.key != half.pairs.key) return false;
   if (start.walls.key != half.walls.key || full.walls.key != half.walls.key) return false;
   for (std::size_t k = 0; k < half.pairs.size(); ++k)
-    if (start.pairs.history[k].mode != half.pairs.history[k].mode ||
-        full.pairs.history[k].mode != half.pairs.history[k].mode)
+    if (start.pairs.mode[k] != half.pairs.mode[k] || full.pairs.mode[k] != half.pairs.mode[k])
       return false;
   for (std::size_t k = 0; k < half.walls.size(); ++k)
     if (start.walls.history[k].mode != half.walls.history[k].mode ||

@@ -57,19 +57,6 @@ Real particle_mass(const ParticleConfig& p, Real material_density, int dimension
   return (p.density > 0 ? p.density : material_density) * volume;
 }
 
-Real damping_coefficient(const Damping& d, Real k, Real m, Real gamma_mass) {
-  switch (d.kind) {
-    case DampingKind::damping_ratio:
-      return 2 * d.value * std::sqrt(k * m);
-    case DampingKind::coefficient:
-      return d.value;
-    case DampingKind::gamma:
-      return gamma_mass * d.value;
-    default:
-      throw std::logic_error("damping_coefficient: unresolved damping kind");
-  }
-}
-
 MaterialTable::MaterialTable(const std::vector<MaterialConfig>& materials, const std::vector<ContactConfig>& contacts,
                              Separation separation) {
   for (const auto& m : materials) {

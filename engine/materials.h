@@ -2,7 +2,9 @@
 // Materials and the dense per-pair table of contact parameters, built once at set-up.
 // Damping given as restitution or Tsuji's alpha is resolved to a damping ratio here (restitution
 // with the scene's separation convention), so a contact only needs its effective masses to get c.
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -46,7 +48,19 @@ struct EffectiveMasses {
 EffectiveMasses effective_masses(Real inv_m_i, Real inv_i_i, Real r_i, Real inv_m_j, Real inv_i_j, Real r_j);
 
 /// Damping coefficient c [N s/m] of `d` for spring k and effective mass m (gamma uses gamma_mass).
-Real damping_coefficient(const Damping& d, Real k, Real m, Real gamma_mass);
+/// Inline: the force loops call it per contact (MaterialTable::law_constants).
+inline Real damping_coefficient(const Damping& d, Real k, Real m, Real gamma_mass) {
+  switch (d.kind) {
+    case DampingKind::damping_ratio:
+      return 2 * d.value * std::sqrt(k * m);
+    case DampingKind::coefficient:
+      return d.value;
+    case DampingKind::gamma:
+      return gamma_mass * d.value;
+    default:  // restitution and alpha are resolved to ratios when the table is built
+      return std::numeric_limits<Real>::quiet_NaN();
+  }
+}
 
 /// Inertia factor kappa of I = kappa m R^2: 2/5 for solid spheres (3D), 1/2 for discs (2D).
 inline Real inertia_factor(int dimension) { return dimension == 2 ? 0.5 : 0.4; }
@@ -76,6 +90,38 @@ class MaterialTable {
 
   /// Constants of one contact of class `pair_class` with effective masses `m`.
   LawConstants constants(std::uint16_t pair_class, const EffectiveMasses& m) const;
+
+  /// The constants a law reads, for a contact of particles i and j (a wall: inverse mass and
+  /// inertia 0, radius infinity). The force loops call this per contact instead of storing 96 bytes
+  /// per contact; particles never change mass or radius, so the values are those `constants` gives
+  /// (same expressions, bit for bit). Without friction only k_n and c_n are set, without rolling
+  /// no rolling fields; m_t and the divisions behind it only when the tangential damping needs them.
+  template <bool Friction, bool Rolling>
+  LawConstants law_constants(std::uint16_t pair_class, Real inv_m_i, Real inv_i_i, Real r_i, Real inv_m_j,
+                             Real inv_i_j, Real r_j) const {
+    if constexpr (Rolling) {
+      return constants(pair_class, effective_masses(inv_m_i, inv_i_i, r_i, inv_m_j, inv_i_j, r_j));
+    } else {
+      const PairParams& p = params_[pair_class];
+      LawConstants c{};
+      const Real inv_m = inv_m_i + inv_m_j;
+      const Real m_star = 1 / inv_m;  // as effective_masses
+      c.k_n = p.k_n;
+      c.c_n = damping_coefficient(p.normal_damping, p.k_n, m_star, m_star);
+      if constexpr (Friction) {
+        Real m_t = 0;  // only a damping ratio refers to m_t
+        if (p.tangential_damping.kind == DampingKind::damping_ratio) {
+          const Real arm_j = std::isinf(r_j) ? 0 : r_j;
+          m_t = 1 / (inv_m + r_i * r_i * inv_i_i + arm_j * arm_j * inv_i_j);
+        }
+        c.k_t = p.k_t;
+        c.c_t = damping_coefficient(p.tangential_damping, p.k_t, m_t, m_star);
+        c.mu = p.mu;
+        c.mu_s = p.mu_s;
+      }
+      return c;
+    }
+  }
 
  private:
   std::vector<std::string> names_;

@@ -21,6 +21,12 @@ ParticleIndex State::add(const Vec3& x, const Vec3& v, const Vec3& w, Real r, Re
   return slot;
 }
 
+void State::reserve(std::size_t n) {
+  const auto room = [n](auto& v) { v.reserve(n); };
+  room(id), room(position), room(velocity), room(angular_velocity), room(force), room(torque), room(radius);
+  room(inv_mass), room(inv_inertia), room(material), room(level), room(index_of_id);
+}
+
 void State::remove(ParticleIndex slot) {
   const auto erase = [slot](auto& v) { v.erase(v.begin() + slot); };
   index_of_id[id[slot]] = removed_slot;

@@ -32,6 +32,9 @@ struct State {
   /// Appends one particle with the next free id and returns its slot.
   ParticleIndex add(const Vec3& x, const Vec3& v, const Vec3& w, Real r, Real inv_m, Real inv_i,
                     std::uint16_t mat);
+  /// Reserves room for n particles in every array (a scene's particles, added one by one, would
+  /// otherwise leave the arrays up to twice their size).
+  void reserve(std::size_t n);
   /// Removes the particle in `slot`; later slots move down by one, so slots stay in id order, and
   /// its id maps to removed_slot from then on.
   void remove(ParticleIndex slot);

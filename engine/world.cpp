@@ -56,14 +56,16 @@ World::World(const WorldConfig& config)
     skin_ = 0.1 * r_min;
   }
   candidate_skin_ = skin_;
+  const bool book_spectra = config_.collision_spectra && config_.integrator.control == Control::fixed &&
+                            config_.integrator.method == Method::verlet;
+  pairs_.parts = {materials_.any_friction(), materials_.any_rolling(), book_spectra};
   arena_->execute([&] { evaluate_forces(0, true); });
   // Energy already in the springs at the start was not dissipated: count it as work done on them.
   pairs_.work = pairs_.elastic;
   wall_contacts_.work = wall_contacts_.elastic;
-  for (ContactHistory& h : pairs_.history) h.normal_work = h.normal_elastic;
+  for (EnergyBooks& b : pairs_.books) b.normal_work = b.normal_elastic;
   for (ContactHistory& h : wall_contacts_.history) h.normal_work = h.normal_elastic;
-  if (config_.collision_spectra && config_.integrator.control == Control::fixed && config_.integrator.method == Method::verlet)
-    spectra_ = std::make_unique<CollisionSpectra>();
+  if (book_spectra) spectra_ = std::make_unique<CollisionSpectra>();
   for (const WallConfig& w : config_.walls)
     walls_move_ = walls_move_ || w.velocity.norm() > 0 || w.angular_velocity.norm() > 0;
   start_energies_ = energies();
@@ -75,6 +77,7 @@ World::~World() = default;
 void World::add_particles() {
   const bool disc = config_.model.dimension == 2;
   const Real kappa = inertia_factor(config_.model.dimension);
+  state_.reserve(state_.size() + config_.particles.size());
   for (const ParticleConfig& p : config_.particles) {
     const int mat = materials_.find(p.material);
     if (mat < 0) throw std::invalid_argument("particle names an unknown material '" + p.material + "'");
@@ -95,14 +98,17 @@ void World::add_particles() {
 void World::evaluate_forces(Real h, bool force_rebuild) {
   const std::size_t n = state_.size();
   if (force_rebuild || skin_tracker_.needs_rebuild(state_.position, candidate_skin_)) rebuild_candidates();
-  ended_dissipation_ += update_pair_contacts(state_, candidates_, materials_, pairs_, workspace_);
-  if (spectra_) spectra_->record_ended(workspace_.pairs, pairs_);  // the workspace holds the old list
+  // Contacts that end are booked while the old list is still whole (it is updated in place).
+  const EndedPairsHook book_ended = [&](const PairContacts& before, const std::vector<std::uint64_t>& after_key) {
+    spectra_->record_ended(before, after_key);
+  };
+  ended_dissipation_ += update_pair_contacts(state_, candidates_, materials_, pairs_, workspace_, spectra_ ? book_ended : EndedPairsHook{});
   build_pair_adjacency(n, pairs_, adjacency_);
   ended_dissipation_ +=
       update_wall_contacts(state_, walls_, materials_, wall_contacts_, workspace_, adjacency_.wall_start);
   if (spectra_) spectra_->record_ended(workspace_.walls, wall_contacts_);
-  kernels_.pair_forces(state_, pairs_, h);
-  kernels_.wall_forces(state_, walls_, wall_contacts_, h);
+  kernels_.pair_forces(state_, materials_, pairs_, h);
+  kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, h);
   gather_forces(state_, pairs_, wall_contacts_, adjacency_, kernels_.uses_rotation, config_.model.dimension);
 }
 
@@ -282,43 +288,5 @@ Real World::dissipated_energy() const {
 }
 
 std::uint64_t World::state_hash() const { return dem::state_hash(state_, pairs_, wall_contacts_, clock_); }
-
-}  // namespace dem
-
-namespace dem {
-namespace {
-
-template <class T>
-std::size_t bytes(const std::vector<T>& v) {
-  return v.capacity() * sizeof(T);
-}
-
-std::size_t bytes(const PairContacts& c) {
-  return bytes(c.key) + bytes(c.i) + bytes(c.j) + bytes(c.constants) + bytes(c.history) + bytes(c.overlap) + bytes(c.work) + bytes(c.elastic) +
-         bytes(c.force) + bytes(c.torque_i) + bytes(c.torque_j);
-}
-
-std::size_t bytes(const WallContacts& c) {
-  return bytes(c.key) + bytes(c.particle) + bytes(c.wall) + bytes(c.feature) + bytes(c.constants) +
-         bytes(c.history) + bytes(c.overlap) + bytes(c.work) + bytes(c.elastic) + bytes(c.point) + bytes(c.force) + bytes(c.torque) +
-         bytes(c.rolling_torque);
-}
-
-}  // namespace
-
-std::size_t World::memory_bytes() const {
-  const State& s = state_;
-  std::size_t total = bytes(s.id) + bytes(s.position) + bytes(s.velocity) + bytes(s.angular_velocity) +
-                      bytes(s.force) + bytes(s.torque) + bytes(s.radius) + bytes(s.inv_mass) +
-                      bytes(s.inv_inertia) + bytes(s.material) + bytes(s.level) + bytes(s.index_of_id);
-  total += bytes(pairs_) + bytes(wall_contacts_) + bytes(workspace_.pairs) + bytes(workspace_.walls);
-  total += bytes(workspace_.count) + bytes(workspace_.offset);
-  total += bytes(adjacency_.pair_start) + bytes(adjacency_.pair_entry) + bytes(adjacency_.wall_start) +
-           bytes(adjacency_.cursor);
-  total += bytes(candidates_.row_start) + bytes(candidates_.partner);
-  total += grid_.memory_bytes() + kd_tree_.memory_bytes() + skin_tracker_.memory_bytes();
-
-  return total;
-}
 
 }  // namespace dem

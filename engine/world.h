@@ -25,6 +25,7 @@
 #include "engine/exact_stepper.h"
 #include "engine/forces.h"
 #include "engine/materials.h"
+#include "engine/memory_usage.h"
 #include "engine/parallel.h"
 #include "engine/scheduler.h"
 #include "engine/state.h"
@@ -150,8 +151,12 @@ class World {
   /// exact stepper and step doubling find contacts on the path; for them this stays 0).
   const Culprit& longest_step_travel_seen() const { return travel_seen_; }
 
-  /// Heap bytes held by particle, contact and broadphase arrays (capacities, scratch included).
+  /// Heap bytes held by particle, contact, broadphase and stepper arrays, by capacity (what is
+  /// allocated, not what is in use), scratch and per-thread workspaces included; walls and
+  /// materials (not per particle) are left out. The sum of memory_breakdown().
   std::size_t memory_bytes() const;
+  /// The same bytes by container group, in a fixed order (world_memory.cpp).
+  std::vector<MemoryPart> memory_breakdown() const;
 
   // ---- Embedding API (DESIGN.md, Embedding; world_embedding.cpp) -------------------------------
   // For programs that link dem::engine: build from a scene file, run with a callback at sync times,

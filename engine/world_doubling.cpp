@@ -213,6 +213,7 @@ void gather_island(const Islands& islands, const std::vector<std::uint32_t>& loc
     pair_count += pairs.row_start[member[q] + 1] - pairs.row_start[member[q]];
     wall_count += wall_start[member[q] + 1] - wall_start[member[q]];
   }
+  cp.parts = pairs.parts;
   cp.resize(pair_count);
   cp.row_start.assign(1, 0);
   cw.resize(wall_count);
@@ -230,15 +231,13 @@ void gather_island(const Islands& islands, const std::vector<std::uint32_t>& loc
     cand.row_start.push_back(static_cast<std::uint32_t>(cand.partner.size()));
     if (!with_contacts) continue;
     for (std::uint32_t c = pairs.row_start[a]; c < pairs.row_start[a + 1]; ++c, ++pk) {
-      cp.key[pk] = pairs.key[c], cp.i[pk] = local[pairs.i[c]], cp.j[pk] = local[pairs.j[c]];
-      cp.constants[pk] = pairs.constants[c], cp.history[pk] = pairs.history[c], cp.overlap[pk] = pairs.overlap[c];
-      cp.work[pk] = pairs.work[c], cp.elastic[pk] = pairs.elastic[c], cp.force[pk] = pairs.force[c];
-      cp.torque_i[pk] = pairs.torque_i[c], cp.torque_j[pk] = pairs.torque_j[c];
+      copy_pair(pairs, c, cp, pk);
+      cp.i[pk] = local[pairs.i[c]], cp.j[pk] = local[pairs.j[c]];
     }
     cp.row_start.push_back(static_cast<std::uint32_t>(pk));
     for (std::uint32_t c = wall_start[a]; c < wall_start[a + 1]; ++c, ++wk) {
       cw.key[wk] = walls.key[c], cw.particle[wk] = static_cast<ParticleIndex>(q), cw.wall[wk] = walls.wall[c];
-      cw.feature[wk] = walls.feature[c], cw.constants[wk] = walls.constants[c], cw.history[wk] = walls.history[c];
+      cw.feature[wk] = walls.feature[c], cw.history[wk] = walls.history[c];
       cw.overlap[wk] = walls.overlap[c], cw.work[wk] = walls.work[c], cw.elastic[wk] = walls.elastic[c];
       cw.point[wk] = walls.point[c], cw.force[wk] = walls.force[c], cw.torque[wk] = walls.torque[c];
       cw.rolling_torque[wk] = walls.rolling_torque[c];
@@ -466,6 +465,7 @@ void World::finish_round() {
       1);
   PairContacts& fresh = workspace_.pairs;
   WallContacts& fresh_walls = workspace_.walls;
+  fresh.parts = pairs_.parts;
   exclusive_scan(pair_count, fresh.row_start);
   exclusive_scan(wall_count, adjacency_.wall_start);
   fresh.resize(fresh.row_start[n]);
@@ -481,16 +481,14 @@ void World::finish_round() {
         for (std::size_t q = 0; q < is.state.size(); ++q) {
           std::uint32_t slot = fresh.row_start[member[q]];
           for (std::uint32_t c = cp.row_start[q]; c < cp.row_start[q + 1]; ++c, ++slot) {
-            fresh.key[slot] = cp.key[c], fresh.i[slot] = member[cp.i[c]], fresh.j[slot] = member[cp.j[c]];
-            fresh.constants[slot] = cp.constants[c], fresh.history[slot] = cp.history[c];
-            fresh.overlap[slot] = cp.overlap[c], fresh.work[slot] = cp.work[c], fresh.elastic[slot] = cp.elastic[c];
-            fresh.force[slot] = cp.force[c], fresh.torque_i[slot] = cp.torque_i[c], fresh.torque_j[slot] = cp.torque_j[c];
+            copy_pair(cp, c, fresh, slot);
+            fresh.i[slot] = member[cp.i[c]], fresh.j[slot] = member[cp.j[c]];
           }
           slot = adjacency_.wall_start[member[q]];
           for (std::uint32_t c = is.adjacency.wall_start[q]; c < is.adjacency.wall_start[q + 1]; ++c, ++slot) {
             fresh_walls.key[slot] = cw.key[c], fresh_walls.particle[slot] = member[q];
             fresh_walls.wall[slot] = cw.wall[c], fresh_walls.feature[slot] = cw.feature[c];
-            fresh_walls.constants[slot] = cw.constants[c], fresh_walls.history[slot] = cw.history[c];
+            fresh_walls.history[slot] = cw.history[c];
             fresh_walls.overlap[slot] = cw.overlap[c], fresh_walls.work[slot] = cw.work[c];
             fresh_walls.elastic[slot] = cw.elastic[c], fresh_walls.point[slot] = cw.point[c];
             fresh_walls.force[slot] = cw.force[c], fresh_walls.torque[slot] = cw.torque[c];

@@ -4,7 +4,7 @@
 // A population change, top to bottom:
 //   State::add / State::remove (slots stay in id order, ids are never reused)
 //   -> the removed particle's contacts dropped from both lists, the slots above it renumbered
-//      (keys, constants and history of every other contact untouched)
+//      (keys and history of every other contact untouched)
 //   -> contact rows and the gather adjacency rebuilt -> per-particle forces re-summed from the
 //      remaining contacts (the next half kick must not feel a removed neighbour)
 //   -> candidate pairs rebuilt -> step doubling's per-particle arrays resized to the new count.
@@ -169,16 +169,11 @@ ParticleId World::add_particle(const ParticleConfig& p) {
 namespace {
 
 /// Moves contact `from` to slot `to` (to <= from) of a list, every field.
-void move_pair(PairContacts& c, std::size_t from, std::size_t to) {
-  c.key[to] = c.key[from], c.i[to] = c.i[from], c.j[to] = c.j[from], c.constants[to] = c.constants[from];
-  c.history[to] = c.history[from], c.overlap[to] = c.overlap[from], c.work[to] = c.work[from];
-  c.elastic[to] = c.elastic[from], c.force[to] = c.force[from], c.torque_i[to] = c.torque_i[from];
-  c.torque_j[to] = c.torque_j[from];
-}
+void move_pair(PairContacts& c, std::size_t from, std::size_t to) { copy_pair(c, from, c, to); }
 
 void move_wall(WallContacts& c, std::size_t from, std::size_t to) {
   c.key[to] = c.key[from], c.particle[to] = c.particle[from], c.wall[to] = c.wall[from];
-  c.feature[to] = c.feature[from], c.constants[to] = c.constants[from], c.history[to] = c.history[from];
+  c.feature[to] = c.feature[from], c.history[to] = c.history[from];
   c.overlap[to] = c.overlap[from], c.work[to] = c.work[from], c.elastic[to] = c.elastic[from];
   c.point[to] = c.point[from], c.force[to] = c.force[from], c.torque[to] = c.torque[from];
   c.rolling_torque[to] = c.rolling_torque[from];
@@ -209,7 +204,7 @@ bool World::remove_particle(ParticleId id) {
     if (pairs_.i[k] == slot || pairs_.j[k] == slot) {
       carried += pairs_.elastic[k];
       if (contact_books) ended_dissipation_ += pairs_.work[k] - pairs_.elastic[k];
-      if (spectra_) spectra_->record(CollisionSpectra::ball_ball, pairs_.history[k], pairs_.work[k], pairs_.elastic[k]);
+      if (spectra_) spectra_->record(CollisionSpectra::ball_ball, pairs_.history(k), pairs_.work[k], pairs_.elastic[k]);
       continue;
     }
     move_pair(pairs_, k, kept);

@@ -216,14 +216,19 @@ struct PackingRun {
 inline Real omega_max_bound(const World& world) {
   const State& s = world.state();
   std::vector<Real> sum(s.size(), 0);
+  const MaterialTable& m = world.materials();
   const PairContacts& pc = world.pair_contacts();
   for (std::size_t q = 0; q < pc.size(); ++q) {
-    const Real k_over_m = pc.constants[q].k_n * (s.inv_mass[pc.i[q]] + s.inv_mass[pc.j[q]]);
+    const Real k_n = m.params(m.pair_class(s.material[pc.i[q]], s.material[pc.j[q]])).k_n;
+    const Real k_over_m = k_n * (s.inv_mass[pc.i[q]] + s.inv_mass[pc.j[q]]);
     sum[pc.i[q]] += k_over_m;
     sum[pc.j[q]] += k_over_m;
   }
   const WallContacts& wc = world.wall_contacts();
-  for (std::size_t q = 0; q < wc.size(); ++q) sum[wc.particle[q]] += wc.constants[q].k_n * s.inv_mass[wc.particle[q]];
+  for (std::size_t q = 0; q < wc.size(); ++q) {
+    const Real k_n = m.params(m.pair_class(s.material[wc.particle[q]], world.walls().material(wc.wall[q]))).k_n;
+    sum[wc.particle[q]] += k_n * s.inv_mass[wc.particle[q]];
+  }
   return std::sqrt(*std::max_element(sum.begin(), sum.end()));
 }
 

@@ -290,7 +290,7 @@ TEST(Embedding, RemovingAParticleInContactKeepsTheBooksAndTheOthersHistory) {
     for (std::size_t k = 0; k < world.pair_contacts().size(); ++k) {
       const std::uint64_t key = world.pair_contacts().key[k];
       if ((key >> 32) == id || (key & 0xffffffffu) == id) ++its_pairs;
-      else kept_pairs[key] = world.pair_contacts().history[k];
+      else kept_pairs[key] = world.pair_contacts().history(k);
     }
     for (std::size_t k = 0; k < world.wall_contacts().size(); ++k) {
       const std::uint64_t key = world.wall_contacts().key[k];
@@ -317,7 +317,7 @@ TEST(Embedding, RemovingAParticleInContactKeepsTheBooksAndTheOthersHistory) {
     for (std::size_t k = 0; k < world.pair_contacts().size(); ++k) {
       const auto it = kept_pairs.find(world.pair_contacts().key[k]);
       ASSERT_NE(it, kept_pairs.end());
-      EXPECT_TRUE(same_history(it->second, world.pair_contacts().history[k]));
+      EXPECT_TRUE(same_history(it->second, world.pair_contacts().history(k)));
     }
     ASSERT_EQ(world.wall_contacts().size(), kept_walls.size());
     for (std::size_t k = 0; k < world.wall_contacts().size(); ++k) {
