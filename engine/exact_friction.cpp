@@ -8,19 +8,21 @@
 namespace dem {
 namespace {
 
-using Mat7 = Eigen::Matrix<Real, 7, 7>;
-using Planar = Eigen::Matrix<Real, 5, 2>;  // rows: x, v, w, xi, theta; columns: directions 1 and 2
+constexpr int rows = 6;  // per direction: x, v, w_i, w_j, xi, theta
+using Mat8 = Eigen::Matrix<Real, rows + 2, rows + 2>;
+using Planar = Eigen::Matrix<Real, rows, 2>;  // columns: directions 1 and 2
 using Vec2 = Eigen::Matrix<Real, 2, 1>;
-enum Row { X = 0, V = 1, W = 2, XI = 3, TH = 4 };
+enum Row { X = 0, V = 1, W = 2, WJ = 3, XI = 4, TH = 5 };
+constexpr int forcing = rows;  // first column of the forcings
 
 /// exp(m) by scaling and squaring with a Taylor polynomial of degree 18 on norm <= 1/2 (truncation
 /// below 1e-21 relative): deterministic and good to round-off for the small, stable systems here.
-Mat7 exponential(const Mat7& m) {
+Mat8 exponential(const Mat8& m) {
   const Real norm = m.cwiseAbs().rowwise().sum().maxCoeff();
   int squarings = 0;
   if (norm > 0.5) squarings = std::min(1000, static_cast<int>(std::ceil(std::log2(norm / 0.5))));
-  const Mat7 a = std::ldexp(Real{1}, -squarings) * m;
-  Mat7 result = Mat7::Identity(), term = Mat7::Identity();
+  const Mat8 a = std::ldexp(Real{1}, -squarings) * m;
+  Mat8 result = Mat8::Identity(), term = Mat8::Identity();
   for (int k = 1; k <= 18; ++k) {
     term = (term * a) / static_cast<Real>(k);
     result += term;
@@ -41,7 +43,12 @@ struct Limits {
   Real stick, slide, hold, roll;  // mu_s F_n, mu F_n, mu_rs R* F_n, mu_r R* F_n
 };
 
-Vec2 slip(const Planar& y, Real arm) { return Vec2(y.row(V).transpose() - arm * y.row(W).transpose()); }
+Vec2 slip(const TangentialConstants& c, const Planar& y) {
+  return Vec2(y.row(V).transpose() - c.arm * y.row(W).transpose() - c.arm_j * y.row(WJ).transpose());
+}
+
+/// Relative rolling velocity w_r = w_i - w_j (planar).
+Vec2 rolling_rate(const Planar& y) { return Vec2(y.row(W).transpose() - y.row(WJ).transpose()); }
 
 Vec2 along(const Vec2& v, Real magnitude) {
   const Real norm = v.norm();
@@ -60,7 +67,7 @@ void settle(const TangentialConstants& c, const Limits& lim, Planar& y, std::uin
   constexpr Real tol = 1 + 1e-12;
   if (c.friction) {
     const Real spring = c.k_t * Vec2(y.row(XI).transpose()).norm();
-    const Real u = slip(y, c.arm).norm();
+    const Real u = slip(c, y).norm();
     if (!(mode & mode_sliding)) {
       if (!(lim.stick > 0) || spring > tol * lim.stick || c.c_t * u > tol * lim.stick) mode |= mode_sliding;
     } else if (u == 0 && lim.stick > 0 && spring <= lim.stick) {
@@ -76,7 +83,7 @@ void settle(const TangentialConstants& c, const Limits& lim, Planar& y, std::uin
     y.row(TH).setZero();
     return;
   }
-  const Real w = Vec2(y.row(W).transpose()).norm();
+  const Real w = rolling_rate(y).norm();
   if (!(mode & mode_rolling)) {
     const Real spring = c.k_r * Vec2(y.row(TH).transpose()).norm();
     if (!(lim.hold > 0) || spring > tol * lim.hold || c.c_r * w > tol * lim.hold) mode |= mode_rolling;
@@ -90,13 +97,13 @@ Piece piece_of(const TangentialConstants& c, const Limits& lim, const Planar& y,
   Piece p;
   p.stick = c.friction && !(mode & mode_sliding);
   if (c.friction && !p.stick) {
-    const Vec2 u = slip(y, c.arm);
+    const Vec2 u = slip(c, y);
     p.force = u.norm() > 0 ? along(u, -lim.slide) : along(Vec2(y.row(XI).transpose()), -lim.slide);
   }
   if (rolling_active(c, mode)) {
     p.hold = !(mode & mode_rolling);
     if (!p.hold) {
-      const Vec2 w = y.row(W).transpose();
+      const Vec2 w = rolling_rate(y);
       p.moment = w.norm() > 0 ? along(w, -lim.roll) : along(Vec2(y.row(TH).transpose()), -lim.roll);
     }
   }
@@ -104,36 +111,48 @@ Piece piece_of(const TangentialConstants& c, const Limits& lim, const Planar& y,
 }
 
 /// The generator [[A, B], [0, 0]] of the piece (PHYSICS.md 1.3, 1.4 in planar form; see the header).
-Mat7 generator(const TangentialConstants& c, const Piece& p, const Vec2& g) {
-  Mat7 m = Mat7::Zero();
+Mat8 generator(const TangentialConstants& c, const Piece& p, const Vec2& g) {
+  Mat8 m = Mat8::Zero();
   m(X, V) = 1;
-  for (int d = 0; d < 2; ++d) m(V, 5 + d) = g(d);
+  for (int d = 0; d < 2; ++d) m(V, forcing + d) = g(d);
   if (p.stick) {
-    Eigen::Matrix<Real, 1, 5> f = Eigen::Matrix<Real, 1, 5>::Zero();  // F = -k_t xi - c_t (v - a w)
+    Eigen::Matrix<Real, 1, rows> f = Eigen::Matrix<Real, 1, rows>::Zero();  // F = -k_t xi - c_t u
     f(V) = -c.c_t;
     f(W) = c.c_t * c.arm;
+    f(WJ) = c.c_t * c.arm_j;
     f(XI) = -c.k_t;
-    m.block<1, 5>(V, 0) += c.inv_mass * f;
-    m.block<1, 5>(W, 0) += (-c.arm * c.inv_inertia) * f;
+    m.block<1, rows>(V, 0) += c.inv_mass * f;
+    m.block<1, rows>(W, 0) += (-c.arm * c.inv_inertia) * f;
+    m.block<1, rows>(WJ, 0) += (-c.arm_j * c.inv_inertia_j) * f;
     m(XI, V) = 1;
     m(XI, W) = -c.arm;
+    m(XI, WJ) = -c.arm_j;
   } else {
     for (int d = 0; d < 2; ++d) {
-      m(V, 5 + d) += c.inv_mass * p.force(d);
-      m(W, 5 + d) += -c.arm * c.inv_inertia * p.force(d);
+      m(V, forcing + d) += c.inv_mass * p.force(d);
+      m(W, forcing + d) += -c.arm * c.inv_inertia * p.force(d);
+      m(WJ, forcing + d) += -c.arm_j * c.inv_inertia_j * p.force(d);
     }
   }
   if (p.hold) {
-    m(W, TH) += -c.k_r * c.inv_inertia;
-    m(W, W) += -c.c_r * c.inv_inertia;
+    Eigen::Matrix<Real, 1, rows> t = Eigen::Matrix<Real, 1, rows>::Zero();  // M = -k_r theta - c_r w_r
+    t(TH) = -c.k_r;
+    t(W) = -c.c_r;
+    t(WJ) = c.c_r;
+    m.block<1, rows>(W, 0) += c.inv_inertia * t;
+    m.block<1, rows>(WJ, 0) += -c.inv_inertia_j * t;
     m(TH, W) = 1;
+    m(TH, WJ) = -1;
   } else {
-    for (int d = 0; d < 2; ++d) m(W, 5 + d) += c.inv_inertia * p.moment(d);
+    for (int d = 0; d < 2; ++d) {
+      m(W, forcing + d) += c.inv_inertia * p.moment(d);
+      m(WJ, forcing + d) += -c.inv_inertia_j * p.moment(d);
+    }
   }
   return m;
 }
 
-Planar apply(const Mat7& e, const Planar& y) { return e.topLeftCorner<5, 5>() * y + e.topRightCorner<5, 2>(); }
+Planar apply(const Mat8& e, const Planar& y) { return e.topLeftCorner<rows, rows>() * y + e.topRightCorner<rows, 2>(); }
 
 /// Which switches have fired in state y (bits: 1 stick->slide, 2 slide->stick, 4 static->roll,
 /// 8 roll->static) and the largest switching function, scaled by its limit (> 0: fired).
@@ -149,7 +168,7 @@ Switching switching(const TangentialConstants& c, const Limits& lim, const Piece
     s.value = std::max(s.value, value);
     if (value > 0) s.fired |= bit;
   };
-  const Vec2 u = slip(y, c.arm), w = y.row(W).transpose();
+  const Vec2 u = slip(c, y), w = rolling_rate(y);
   if (p.stick) {
     add(c.k_t * Vec2(y.row(XI).transpose()).norm() / lim.stick - 1, 1);
     add(c.c_t * u.norm() / lim.stick - 1, 1);
@@ -169,10 +188,11 @@ Switching switching(const TangentialConstants& c, const Limits& lim, const Piece
 Real fastest_rate(const TangentialConstants& c, const Piece& p) {
   Real rate = 0;
   if (p.stick) {
-    const Real inv_mt = c.inv_mass + c.arm * c.arm * c.inv_inertia;
+    const Real inv_mt = c.inv_mass + c.arm * c.arm * c.inv_inertia + c.arm_j * c.arm_j * c.inv_inertia_j;
     rate += std::sqrt(c.k_t * inv_mt) + c.c_t * inv_mt;
   }
-  if (p.hold) rate += std::sqrt(c.k_r * c.inv_inertia) + c.c_r * c.inv_inertia;
+  const Real inv_ir = c.inv_inertia + c.inv_inertia_j;
+  if (p.hold) rate += std::sqrt(c.k_r * inv_ir) + c.c_r * inv_ir;
   return rate;
 }
 
@@ -181,6 +201,7 @@ Real energy(const TangentialConstants& c, const Planar& y, const Vec2& g) {
   for (int d = 0; d < 2; ++d) {
     if (c.inv_mass > 0) e += (0.5 * y(V, d) * y(V, d) - g(d) * y(X, d)) / c.inv_mass;
     if (c.inv_inertia > 0) e += 0.5 * y(W, d) * y(W, d) / c.inv_inertia;
+    if (c.inv_inertia_j > 0) e += 0.5 * y(WJ, d) * y(WJ, d) / c.inv_inertia_j;
     if (c.friction) e += 0.5 * c.k_t * y(XI, d) * y(XI, d);
     if (c.rolling != RollingKind::none) e += 0.5 * c.k_r * y(TH, d) * y(TH, d);
   }
@@ -200,10 +221,11 @@ Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, 
   // Tangent basis: e1 from a fixed axis, so an in-plane (2-D) wall keeps direction 2 along z.
   const Vec3 axis = std::abs(n.x()) < 0.9 ? Vec3(Vec3::UnitX()) : Vec3(Vec3::UnitY());
   const Vec3 e1 = (axis - axis.dot(n) * n).normalized(), e2 = n.cross(e1);
-  const Real spin_n = s.spin.dot(n);
+  const Real spin_n = s.spin.dot(n), spin_j_n = s.spin_j.dot(n);
   Planar y;
-  y.col(0) << 0, s.velocity.dot(e1), s.spin.dot(e2), history.tangential_spring.dot(e1), history.rolling_spring.dot(e2);
-  y.col(1) << 0, s.velocity.dot(e2), -s.spin.dot(e1), history.tangential_spring.dot(e2),
+  y.col(0) << 0, s.velocity.dot(e1), s.spin.dot(e2), s.spin_j.dot(e2), history.tangential_spring.dot(e1),
+      history.rolling_spring.dot(e2);
+  y.col(1) << 0, s.velocity.dot(e2), -s.spin.dot(e1), -s.spin_j.dot(e1), history.tangential_spring.dot(e2),
       -history.rolling_spring.dot(e1);
   const Vec2 g(g_t.dot(e1), g_t.dot(e2));
   const Real f_n = std::max(load, Real{0});
@@ -216,6 +238,7 @@ Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, 
   auto to_state = [&](const Planar& z, TangentialState& out) {
     out.velocity = z(V, 0) * e1 + z(V, 1) * e2;
     out.spin = spin_n * n - z(W, 1) * e1 + z(W, 0) * e2;
+    out.spin_j = spin_j_n * n - z(WJ, 1) * e1 + z(WJ, 0) * e2;
     out.displacement = s.displacement + z(X, 0) * e1 + z(X, 1) * e2;
   };
 
@@ -225,14 +248,14 @@ Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, 
   Piece p = piece_of(c, lim, y, mode);
   while (done < tau) {
     const Real left = tau - done;
-    const Mat7 gen = generator(c, p, g);
+    const Mat8 gen = generator(c, p, g);
     const bool can_switch = switches < max_events;
     // Bracket the first switch by sampling at a quarter of the fastest period (a linear piece needs
     // one interval: its switching functions are monotone).
     const Real rate = fastest_rate(c, p);
     const int samples = can_switch ? std::clamp(static_cast<int>(std::ceil(left * rate / (0.25 * pi))), 1, 4096) : 1;
     const Real dt = left / samples;
-    const Mat7 step = exponential(dt * gen);
+    const Mat8 step = exponential(dt * gen);
     Planar before = y;
     int fired_at = -1;
     for (int k = 0; k < samples; ++k) {

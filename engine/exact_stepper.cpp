@@ -7,6 +7,7 @@
 
 #include "engine/contact_law.h"
 #include "engine/parallel.h"
+#include "engine/tangential_kick.h"
 
 namespace dem {
 namespace {
@@ -255,23 +256,92 @@ Stretch contact_stretch(ExactInteraction& k, Separation sep, const Radial& x, Po
   return s;
 }
 
+/// The frictionless flows: no tangential channel.
+struct NoKick {
+  static constexpr bool active = false;
+  void operator()(Radial&, const Polar&, Real, Real) const {}
+};
+
+/// A tangential channel (a callable f(Radial&, const Polar&, duration, elapsed)) for radial_flow.
+template <class F>
+struct Kicking {
+  static constexpr bool active = true;
+  const F& f;
+  void operator()(Radial& x, const Polar& p, Real duration, Real elapsed) const { f(x, p, duration, elapsed); }
+};
+
+bool has_tangential(const ExactSettings& set) { return set.friction || set.rolling != RollingKind::none; }
+
+/// Normal force of the contact in normal state n [N]: k delta + c delta' (the friction limits clamp it).
+Real normal_force(const ExactInteraction& k, const NormalState& n) {
+  const NormalOscillator& o = k.oscillator;
+  return k.effective_mass * (o.omega0 * o.omega0 * n.delta + 2 * o.beta * n.rate);
+}
+
+/// One piece of a pushing stretch with the tangential channel split around it, K(l/2) N(l) K(l/2): K the
+/// kick (tangential_kick.h, geometry and normal force frozen), N the exact normal flow in polar form
+/// (contact_stretch). The piece is at most a quarter radian of the normal oscillator (or 1/128 of the
+/// flow) and ends at the release, found first on a copy, so each piece lies inside the contact, where the
+/// normal force is smooth: the kicks see it at both ends (a trapezoid rule for the friction impulse,
+/// second order in the piece; the dashpot's jump at onset is its start value). `elapsed`: time of the
+/// piece's start from the start of the flow [s]. The kick changes only the velocity across the normal
+/// (and the spins), so the normal state stays the one the normal flow put on its events.
+template <class Kick>
+Stretch split_stretch(ExactInteraction& k, Separation sep, Radial& x, Polar& p, Real limit, Real tau, Real elapsed,
+                      Kick& kick) {
+  Real length = std::min(limit, std::max(Real{0.25} / k.oscillator.omega0, tau / 128));
+  {
+    Radial trial_x = x;
+    Polar trial_p = p;
+    const Real dissipated = k.dissipated;
+    const Stretch trial = contact_stretch(k, sep, trial_x, trial_p, length, nullptr);
+    k.dissipated = dissipated;
+    if (trial.released) length = trial.time;
+  }
+  if (!(length > 0)) return contact_stretch(k, sep, x, p, limit, nullptr);  // releases at once
+  const auto kick_half = [&](Real at) {
+    kick(x, p, 0.5 * length, at);
+    p.u_t = x.u - x.u.dot(p.e) * p.e;
+  };
+  kick_half(elapsed);
+  const Stretch s = contact_stretch(k, sep, x, p, length, nullptr);
+  set_cartesian(x, p);
+  kick_half(elapsed + s.time);
+  return s;
+}
+
 /// P_k(tau) of the relative motion. Apart: exact free flight, up to an onset found on the true path
 /// (first_entry), or, under force_zero with a residual overlap, up to the force rising through zero
 /// again (along the normal, to second order). Pushing: contact_stretch. Each stretch ends at an event,
-/// so an isolated head-on contact stays exact at any step.
-void radial_flow(Radial& x, ExactInteraction& k, Separation sep, Real tau, const PropagatorCoefficients* whole_step) {
+/// so an isolated head-on contact stays exact at any step. With a tangential channel (Kick::active), the
+/// pushing stretches are cut into the pieces of split_stretch.
+template <class Kick = NoKick>
+void radial_flow(Radial& x, ExactInteraction& k, Separation sep, Real tau, const PropagatorCoefficients* whole_step,
+                 Kick kick = {}) {
   const NormalOscillator& o = k.oscillator;
   Polar p = polar_of(x);
   bool pushing = pushes(o, sep, p.normal);
   Real left = tau;
   // A contact can only bounce so often within one step; past the cap, events are ignored so the flow
-  // always ends (round-off chatter at a graze).
+  // always ends (round-off chatter at a graze). A piece of a split stretch that ends without release is
+  // not a pass; past max_pieces (round-off stalling a release) the rest of the flow is frictionless.
+  constexpr int max_pieces = 4096;
+  int pieces = 0;
   for (int pass = 0; left > 0; ++pass) {
     if (pushing) {
-      const Stretch s = contact_stretch(k, sep, x, p, left, pass == 0 ? whole_step : nullptr);
-      set_cartesian(x, p);
-      if (!s.released) return;
-      left -= s.time;
+      if (Kick::active && pieces++ < max_pieces) {
+        const Stretch s = split_stretch(k, sep, x, p, left, tau, tau - left, kick);
+        left -= s.time;
+        if (!s.released) {
+          --pass;
+          continue;
+        }
+      } else {
+        const Stretch s = contact_stretch(k, sep, x, p, left, pass == 0 ? whole_step : nullptr);
+        set_cartesian(x, p);
+        if (!s.released) return;
+        left -= s.time;
+      }
       pushing = false;
       continue;
     }
@@ -305,7 +375,20 @@ void pair_flow(State& s, ExactInteraction& k, const ExactSettings& set, Real tau
   const Real inv_i = s.inv_mass[i], inv_j = s.inv_mass[j];
   const Vec3 gi = gravity_of(s, i, set.gravity), gj = gravity_of(s, j, set.gravity);
   Radial x{s.position[i] - s.position[j], s.velocity[i] - s.velocity[j], gi - gj, s.radius[i] + s.radius[j], -1};
-  radial_flow(x, k, set.separation, tau, k.half_step);
+  if (has_tangential(set)) {
+    // The tangential channel acts on the relative velocity and both spins; the normal is e, from j to i.
+    const auto kick = [&](Radial& r, const Polar& p, Real duration, Real) {
+      const Real delta = p.normal.delta;
+      const KickBodies bodies{inv_i + inv_j, s.inv_inertia[i], s.inv_inertia[j], s.radius[i] - 0.5 * delta,
+                              s.radius[j] - 0.5 * delta};
+      k.dissipated += tangential_kick(k.constants, set.friction, set.rolling, bodies, p.e, normal_force(k, p.normal),
+                                      duration, r.u, s.angular_velocity[i], s.angular_velocity[j], k.history);
+    };
+    radial_flow(x, k, set.separation, tau, nullptr, Kicking<decltype(kick)>{kick});
+    if (!(x.reach - x.r.norm() > 0)) k.history = ContactHistory{};  // the record lasts while the overlap does
+  } else {
+    radial_flow(x, k, set.separation, tau, k.half_step);
+  }
   // Centre of mass, weighted by the masses (an immovable partner carries it).
   const Real w_i = inv_i / (inv_i + inv_j), w_j = inv_j / (inv_i + inv_j);
   const Vec3 x_cm = w_j * s.position[i] + w_i * s.position[j];
@@ -399,9 +482,40 @@ Vec3 cylinder_flow(State& s, const Walls& walls, ExactInteraction& k, const Exac
   const Real u_along = u.dot(axis), g_along = g.dot(axis);
   const Real reach = walls.config(k.wall).radius - s.radius[p];
   Radial x{s.position[p] - centre, u - u_along * axis, g - g_along * axis, reach, 1};
-  radial_flow(x, k, set.separation, tau, k.half_step);
-  s.position[p] = centre + tau * v_frame + (tau * u_along + 0.5 * tau * tau * g_along) * axis + x.r;
-  s.velocity[p] = v_frame + (u_along + tau * g_along) * axis + x.u;
+  if (!has_tangential(set)) {
+    radial_flow(x, k, set.separation, tau, k.half_step);
+    s.position[p] = centre + tau * v_frame + (tau * u_along + 0.5 * tau * tau * g_along) * axis + x.r;
+    s.velocity[p] = v_frame + (u_along + tau * g_along) * axis + x.u;
+    return v_frame;
+  }
+  // The tangential channel against the shell's material, whose spin w_wall (frozen over tau) moves it at
+  // w_wall x r across the axis frame. The tangent plane holds the axis, so a kick also changes the speed
+  // along it: kept apart (du_along) with the displacement it adds until the end of the flow.
+  const Vec3 w_wall = walls.angular_velocity(k.wall);
+  const Real mass = 1 / s.inv_mass[p], inertia = 1 / s.inv_inertia[p];
+  Real du_along = 0, shift_along = 0;
+  const auto kick = [&](Radial& r, const Polar& polar, Real duration, Real elapsed) {
+    const Vec3 shell = w_wall.cross(r.r);
+    const Vec3 axial = (u_along + du_along + elapsed * g_along) * axis;
+    Vec3 relative = r.u + axial - shell, spin = s.angular_velocity[p] - w_wall, none = Vec3::Zero();
+    const Vec3 relative_before = relative, spin_before = spin;
+    const KickBodies bodies{s.inv_mass[p], s.inv_inertia[p], 0, s.radius[p] - 0.5 * polar.normal.delta, 0};
+    k.dissipated += tangential_kick(k.constants, set.friction, set.rolling, bodies, -polar.e,
+                                    normal_force(k, polar.normal), duration, relative, spin, none, k.history);
+    const Vec3 dv = relative - relative_before;
+    const Real dv_along = dv.dot(axis);
+    du_along += dv_along;
+    shift_along += dv_along * (tau - elapsed);
+    r.u += dv - dv_along * axis;
+    s.angular_velocity[p] = w_wall + spin;
+    // The shell's work beyond the frame's translation (wall_flow books that part): its surface speed
+    // against the tangential impulse and its spin against the contact's angular impulse.
+    k.work += mass * shell.dot(dv) + inertia * w_wall.dot(spin - spin_before);
+  };
+  radial_flow(x, k, set.separation, tau, nullptr, Kicking<decltype(kick)>{kick});
+  s.position[p] = centre + tau * v_frame + (tau * u_along + 0.5 * tau * tau * g_along + shift_along) * axis + x.r;
+  s.velocity[p] = v_frame + (u_along + du_along + tau * g_along) * axis + x.u;
+  if (!(x.r.norm() - reach > 0)) k.history = ContactHistory{};  // the record lasts while the overlap does
   return v_frame;
 }
 
@@ -454,11 +568,20 @@ bool forced_contains(const std::vector<std::uint64_t>& forced, std::uint64_t key
   return std::binary_search(forced.begin(), forced.end(), key);
 }
 
-/// The history a wall contact carried out of the previous step, or a fresh one.
+/// The history a contact carried out of the previous step, or a fresh one.
 ContactHistory history_of(const ExactWorkspace& work, std::uint64_t key) {
   const auto it = std::lower_bound(work.history.begin(), work.history.end(), key,
                                    [](const ExactHistoryRecord& r, std::uint64_t x) { return r.key < x; });
   return it != work.history.end() && it->key == key ? it->history : ContactHistory{};
+}
+
+/// A pair's history seen from the other side: the springs (relative motion of i against j) change sign.
+ContactHistory flipped(ContactHistory h, bool flip) {
+  if (flip) {
+    h.tangential_spring = -h.tangential_spring;
+    h.rolling_spring = -h.rolling_spring;
+  }
+  return h;
 }
 
 void collect_interactions(const State& s, const Walls& walls, const MaterialTable& materials,
@@ -513,8 +636,12 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
       const EffectiveMasses m =
           effective_masses(s.inv_mass[a], s.inv_inertia[a], s.radius[a], s.inv_mass[b], s.inv_inertia[b], s.radius[b]);
       const LawConstants c = materials.constants(materials.pair_class(s.material[a], s.material[b]), m);
+      const ContactHistory history =
+          set.friction || set.rolling != RollingKind::none
+              ? flipped(history_of(work, exact_pair_history_key(s.id[a], s.id[b])), s.id[a] > s.id[b])
+              : ContactHistory{};
       work.interactions[slot++] = {a, b, ExactInteraction::no_wall, 0, oscillator_of(c, m.m_star), c.k_n, m.m_star, 0, 0,
-                                   nullptr, c, ContactHistory{}, 0, {}};
+                                   nullptr, c, history, 0, {}};
     }
     thread_local std::vector<std::uint32_t> features;
     for (std::size_t w = 0; w < walls.count(); ++w) {
@@ -588,10 +715,16 @@ void keep_histories(const State& s, ExactWorkspace& work) {
   work.history.clear();
   const std::size_t first_event = work.events.size();
   for (const ExactInteraction& k : work.interactions) {
-    if (k.wall == ExactInteraction::no_wall) continue;
     const ContactHistory& h = k.history;
-    if (h.mode != 0 || h.tangential_spring != Vec3::Zero() || h.rolling_spring != Vec3::Zero())
-      work.history.push_back({exact_history_key(s.id[k.i], k.wall, k.feature), h});
+    const Real elastic = 0.5 * k.constants.k_t * h.tangential_spring.squaredNorm() +
+                         0.5 * k.constants.k_r * h.rolling_spring.squaredNorm();
+    const bool kept = h.mode != 0 || h.tangential_spring != Vec3::Zero() || h.rolling_spring != Vec3::Zero();
+    if (k.wall == ExactInteraction::no_wall) {
+      if (kept)
+        work.history.push_back({exact_pair_history_key(s.id[k.i], s.id[k.j]), flipped(h, s.id[k.i] > s.id[k.j]), elastic});
+      continue;
+    }
+    if (kept) work.history.push_back({exact_history_key(s.id[k.i], k.wall, k.feature), h, elastic});
     if (work.record_events)
       for (int e = 0; e < std::min<int>(k.event_count, ExactInteraction::event_capacity); ++e)
         work.events.push_back(k.events[e]);

@@ -34,6 +34,7 @@
 // frictionless here: the World refuses friction with method exact where those can occur.
 // Threading: interactions of one colour run in parallel, each writing only its two particles and
 // its own slot; colours, pairs and sums are in fixed orders, so results do not depend on threads.
+#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <vector>
@@ -61,10 +62,11 @@ struct ExactModeEvent {
   Vec3 angular_velocity = Vec3::Zero();   // [rad/s]
 };
 
-/// Tangential and rolling history of a wall contact, kept by the exact stepper between steps.
+/// Tangential and rolling history of a contact, kept by the exact stepper between steps.
 struct ExactHistoryRecord {
-  std::uint64_t key;  // exact_history_key: the particle's id (State::id, not its slot), then the wall feature
-  ContactHistory history;
+  std::uint64_t key;  // exact_history_key or exact_pair_history_key (ids, not slots)
+  ContactHistory history;  // a pair's springs are those of the smaller id against the larger
+  Real elastic = 0;        // energy in its tangential and rolling springs [J], for the World's books
 };
 
 /// Key of a wall contact's history record: the particle's stable id in the high 32 bits, so that a
@@ -72,6 +74,17 @@ struct ExactHistoryRecord {
 /// all records of one particle are adjacent; the wall and feature in the low bits.
 inline std::uint64_t exact_history_key(ParticleId id, std::size_t wall, std::uint32_t feature) {
   return (std::uint64_t{id} << 32) | 0x80000000u | wall_feature_code(static_cast<std::uint32_t>(wall), feature);
+}
+
+/// Key of a pair contact's history record: the smaller id in the high 32 bits (so a particle's records
+/// stay adjacent, as exact_history_key's), the larger in the low bits, below the wall keys' flag bit.
+inline std::uint64_t exact_pair_history_key(ParticleId a, ParticleId b) {
+  return (std::uint64_t{std::min(a, b)} << 32) | std::max(a, b);
+}
+
+/// True when a history key names a contact of particle `id` (as either partner of a pair).
+inline bool exact_history_involves(std::uint64_t key, ParticleId id) {
+  return (key >> 32) == id || ((key & 0x80000000u) == 0 && static_cast<ParticleId>(key) == id);
 }
 
 /// One pair or wall contact taking part in an exact step.
