@@ -16,7 +16,8 @@
 //   M = -k_r theta - c_r w_r (static), the kinetic -mu_r R* F_n w_r^ (rolling), or 0 (seed mode, sliding).
 // (The contact point is at -a_i n from i and +a_j n from j, so both moments of F are -a n x F.)
 // In every mode this is y' = A y + b with constant A and b, propagated exactly by the exponential of
-// the 8x8 matrix [[A t, B t], [0, 0]] (both directions share A; B holds their forcings). In stick with
+// the 10x10 matrix [[A t, B t], [0, R t]] (both directions share A; B holds their forcings, constant and
+// growing with time, R makes the ramp). In stick with
 // kinetic rolling it is the scalar oscillator of PHYSICS.md 3.1 in u with the tangential mass m_t,
 // 1/m_t = 1/m + a_i^2/I_i + a_j^2/I_j; with the static hold it is that oscillator coupled to the rolling
 // spring. The moments of F and M on i and j are equal and opposite about the contact point, so the
@@ -30,11 +31,13 @@
 //   seed mode: no rolling torque while sliding (the rolling spring is released).
 // Roots are bracketed by sampling at a quarter of the fastest active period, then bisected to
 // round-off; the flow continues in the new mode from the root.
-// Approximations (stated as PHYSICS.md 3.3 asks): the normal force F_n and the lever arm a are constant
-// over a call (the wall flow calls this per sub-step with the mean F_n of the exact normal flow, so the
-// friction and rolling impulses of a sub-step without switch are exact: mu times the normal impulse);
-// the kinetic directions (slip, rolling) are frozen at the start of each mode piece, which is exact
-// for motion in one plane (the seed slope) and first order otherwise; a crossing of a switching
+// Approximations (stated as PHYSICS.md 3.3 asks): the normal force F_n is linear in time and the lever
+// arm a constant over a call (the flat wall flow calls this per sub-step with the mean F_n of the exact
+// normal flow, so the friction and rolling impulses of a sub-step without switch are exact: mu times the
+// normal impulse; the pair and cylinder flows, tangential_kick.h, with a linear fit to it);
+// the kinetic directions (slip, rolling) are frozen over a piece: exact for motion in one plane (the seed
+// slope); out of it a piece ends where they would turn by 0.2 rad and takes the direction predicted for
+// its middle (second order), up to 8 such cuts per call; a crossing of a switching
 // threshold and back within one sampling interval is missed; at most max_events switches per call.
 // Pure functions: no state, no allocation; safe from any thread.
 #include <cstdint>
@@ -80,12 +83,14 @@ struct TangentialEvents {
   TangentialEvent event[capacity];
 };
 
-/// Advances the channel over tau [s] under the constant normal force `load` >= 0 [N] and tangential
-/// body acceleration g_t [m/s^2] (perpendicular to the unit normal n, which points into the particle).
+/// Advances the channel over tau [s] under the normal force load + load_rate t [N] (t from the start of the
+/// call; kept >= 0) and tangential body acceleration g_t [m/s^2] (perpendicular to the unit normal n,
+/// which points into the particle). The kinetic force and torque follow the normal force exactly (its
+/// forcing is a ramp in the generator) and so do the static limits the switches are found against.
 /// s.displacement is increased by the tangential displacement; history (springs, mode bits) is updated.
 /// Returns the energy the channel dissipated [J] (sliding, dashpots, and springs released at switches).
 /// `events` (optional) receives the switches, in time order.
-Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, const Vec3& g_t, Real tau,
-                        TangentialState& s, ContactHistory& history, TangentialEvents* events = nullptr);
+Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, Real load_rate, const Vec3& g_t,
+                        Real tau, TangentialState& s, ContactHistory& history, TangentialEvents* events = nullptr);
 
 }  // namespace dem

@@ -158,6 +158,7 @@ struct Stretch {
   NormalState end;
   Real time;  // [s]
   bool released;
+  Real forcing = 0;  // the constant forcing of the normal flow, a of PHYSICS.md 3.1 [m/s^2] (contact_stretch)
 };
 
 /// The exact normal flow from a pushing state (or one put on the onset condition) over at most `limit`
@@ -253,43 +254,63 @@ Stretch contact_stretch(ExactInteraction& k, Separation sep, const Radial& x, Po
   p.e = t.e;
   p.u_t = t.u_t + (0.5 * s.time) * (x.g - x.g.dot(t.e) * t.e);
   p.normal = s.end;
+  s.forcing = a;
   return s;
 }
 
 /// The frictionless flows: no tangential channel.
 struct NoKick {
   static constexpr bool active = false;
-  void operator()(Radial&, const Polar&, Real, Real) const {}
+  void operator()(Radial&, const Polar&, Real, Real, Real, Real) const {}
 };
 
-/// A tangential channel (a callable f(Radial&, const Polar&, duration, elapsed)) for radial_flow.
+/// A tangential channel for radial_flow: a callable f(x, p, duration, elapsed, normal force [N] at the
+/// kick's start, its rate [N/s]).
 template <class F>
 struct Kicking {
   static constexpr bool active = true;
   const F& f;
-  void operator()(Radial& x, const Polar& p, Real duration, Real elapsed) const { f(x, p, duration, elapsed); }
+  void operator()(Radial& x, const Polar& p, Real duration, Real elapsed, Real load, Real load_rate) const {
+    f(x, p, duration, elapsed, load, load_rate);
+  }
 };
 
 bool has_tangential(const ExactSettings& set) { return set.friction || set.rolling != RollingKind::none; }
 
-/// Normal force of the contact in normal state n [N]: k delta + c delta' (the friction limits clamp it).
-Real normal_force(const ExactInteraction& k, const NormalState& n) {
-  const NormalOscillator& o = k.oscillator;
-  return k.effective_mass * (o.omega0 * o.omega0 * n.delta + 2 * o.beta * n.rate);
+/// At the release the normal force is zero and so are the friction limits: the law's sliding and rolling
+/// responses are zero, their springs reset (contact_law.h), and the springs' energy is dissipated.
+void release_springs(ExactInteraction& k) {
+  ContactHistory& h = k.history;
+  k.dissipated += 0.5 * k.constants.k_t * h.tangential_spring.squaredNorm() +
+                  0.5 * k.constants.k_r * h.rolling_spring.squaredNorm();
+  h.tangential_spring.setZero();
+  h.rolling_spring.setZero();
+  h.mode = static_cast<std::uint8_t>(h.mode | mode_sliding | mode_rolling);
 }
 
-/// One piece of a pushing stretch with the tangential channel split around it, K(l/2) N(l) K(l/2): K the
-/// kick (tangential_kick.h, geometry and normal force frozen), N the exact normal flow in polar form
-/// (contact_stretch). The piece is at most a quarter radian of the normal oscillator (or 1/128 of the
-/// flow) and ends at the release, found first on a copy, so each piece lies inside the contact, where the
-/// normal force is smooth: the kicks see it at both ends (a trapezoid rule for the friction impulse,
-/// second order in the piece; the dashpot's jump at onset is its start value). `elapsed`: time of the
-/// piece's start from the start of the flow [s]. The kick changes only the velocity across the normal
-/// (and the spins), so the normal state stays the one the normal flow put on its events.
+/// Normal force of the contact in normal state n [N], k delta + c delta', at least 0.
+Real normal_force(const ExactInteraction& k, const NormalState& n) {
+  const NormalOscillator& o = k.oscillator;
+  return std::max(Real{0}, k.effective_mass * (o.omega0 * o.omega0 * n.delta + 2 * o.beta * n.rate));
+}
+
+/// One piece of a pushing stretch with the tangential channel split around it, K1(l/2) N(l) K2(l/2): K
+/// the kick (tangential_kick.h, geometry frozen), N the exact normal flow in polar form (contact_stretch).
+/// The piece is at most a quarter radian of the normal oscillator (or 1/128 of the flow) and ends at the
+/// release; both are found first on a copy, with the normal force at the piece's ends and its exact
+/// impulse J over the piece (m* times the forcing's change of delta' minus its actual change). The kicks
+/// see the normal force of the first and the second half of the piece as lines through its values at
+/// the start, the middle and the end (the middle from Simpson's rule on J), scaled so that together they
+/// carry J: a slide's friction impulse is mu J, exact (PHYSICS.md 3.3), and the static limits follow the
+/// force to second order. The approximation is the splitting, second order in the piece: the geometry
+/// (normal, lever arms) is frozen in each kick. `elapsed`: time of the piece's start from the start of
+/// the flow [s]. The kick changes only the velocity across the normal (and the spins), so the normal
+/// state stays the one the normal flow put on its events.
 template <class Kick>
 Stretch split_stretch(ExactInteraction& k, Separation sep, Radial& x, Polar& p, Real limit, Real tau, Real elapsed,
                       Kick& kick) {
   Real length = std::min(limit, std::max(Real{0.25} / k.oscillator.omega0, tau / 128));
+  Real start = normal_force(k, p.normal), middle = start, end = start;  // [N]
   {
     Radial trial_x = x;
     Polar trial_p = p;
@@ -297,16 +318,37 @@ Stretch split_stretch(ExactInteraction& k, Separation sep, Radial& x, Polar& p, 
     const Stretch trial = contact_stretch(k, sep, trial_x, trial_p, length, nullptr);
     k.dissipated = dissipated;
     if (trial.released) length = trial.time;
+    if (length > 0) {
+      const Real mean = k.effective_mass * (trial.forcing * length - (trial.end.rate - p.normal.rate)) / length;
+      end = trial.released ? 0 : normal_force(k, trial.end);
+      middle = std::max(Real{0}, (6 * mean - start - end) / 4);
+      const Real halves = start + 2 * middle + end;  // 4 / l times the kicks' impulse
+      if (halves > 0) {
+        const Real scale = std::max(Real{0}, 4 * mean) / halves;
+        start *= scale, middle *= scale, end *= scale;
+      }
+    }
   }
   if (!(length > 0)) return contact_stretch(k, sep, x, p, limit, nullptr);  // releases at once
-  const auto kick_half = [&](Real at) {
-    kick(x, p, 0.5 * length, at);
+  const Real half = 0.5 * length;
+  const auto kick_half = [&](Real at, Real from, Real to) {
+    kick(x, p, half, at, from, (to - from) / half);
     p.u_t = x.u - x.u.dot(p.e) * p.e;
   };
-  kick_half(elapsed);
-  const Stretch s = contact_stretch(k, sep, x, p, length, nullptr);
+  kick_half(elapsed, start, middle);
+  Stretch s = contact_stretch(k, sep, x, p, length, nullptr);
   set_cartesian(x, p);
-  kick_half(elapsed + s.time);
+  if (!s.released && !pushes(k.oscillator, sep, p.normal)) {
+    // Cut at the release found on the copy, the piece may end on it or a hair past it: the contact has
+    // released, and the normal spring's residual energy is lost there, as contact_stretch books it.
+    s.released = true;
+    if (p.normal.delta > 0) {
+      const Real w = k.oscillator.omega0 * p.normal.delta;
+      k.dissipated += k.effective_mass * 0.5 * w * w;
+    }
+  }
+  kick_half(elapsed + s.time, middle, end);
+  if (s.released) release_springs(k);
   return s;
 }
 
@@ -377,12 +419,12 @@ void pair_flow(State& s, ExactInteraction& k, const ExactSettings& set, Real tau
   Radial x{s.position[i] - s.position[j], s.velocity[i] - s.velocity[j], gi - gj, s.radius[i] + s.radius[j], -1};
   if (has_tangential(set)) {
     // The tangential channel acts on the relative velocity and both spins; the normal is e, from j to i.
-    const auto kick = [&](Radial& r, const Polar& p, Real duration, Real) {
+    const auto kick = [&](Radial& r, const Polar& p, Real duration, Real, Real load, Real load_rate) {
       const Real delta = p.normal.delta;
       const KickBodies bodies{inv_i + inv_j, s.inv_inertia[i], s.inv_inertia[j], s.radius[i] - 0.5 * delta,
                               s.radius[j] - 0.5 * delta};
-      k.dissipated += tangential_kick(k.constants, set.friction, set.rolling, bodies, p.e, normal_force(k, p.normal),
-                                      duration, r.u, s.angular_velocity[i], s.angular_velocity[j], k.history);
+      k.dissipated += tangential_kick(k.constants, set.friction, set.rolling, bodies, p.e, load, load_rate, duration,
+                                      r.u, s.angular_velocity[i], s.angular_velocity[j], k.history);
     };
     radial_flow(x, k, set.separation, tau, nullptr, Kicking<decltype(kick)>{kick});
     if (!(x.reach - x.r.norm() > 0)) k.history = ContactHistory{};  // the record lasts while the overlap does
@@ -443,7 +485,7 @@ Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const Exa
     const Real load = std::max(Real{0}, k.effective_mass * (a * piece - (ne.rate - ns.rate)) / piece);
     c.arm = s.radius[p] - 0.5 * std::max(Real{0}, 0.5 * (ns.delta + ne.delta));
     TangentialEvents events;
-    k.dissipated += advance_tangential(c, n, load, g_t, piece, ts, k.history, &events);
+    k.dissipated += advance_tangential(c, n, load, 0, g_t, piece, ts, k.history, &events);
     for (int e = 0; e < events.count; ++e) {
       const TangentialEvent& ev = events.event[e];
       const Real since = j * piece + ev.time;
@@ -494,14 +536,14 @@ Vec3 cylinder_flow(State& s, const Walls& walls, ExactInteraction& k, const Exac
   const Vec3 w_wall = walls.angular_velocity(k.wall);
   const Real mass = 1 / s.inv_mass[p], inertia = 1 / s.inv_inertia[p];
   Real du_along = 0, shift_along = 0;
-  const auto kick = [&](Radial& r, const Polar& polar, Real duration, Real elapsed) {
+  const auto kick = [&](Radial& r, const Polar& polar, Real duration, Real elapsed, Real load, Real load_rate) {
     const Vec3 shell = w_wall.cross(r.r);
     const Vec3 axial = (u_along + du_along + elapsed * g_along) * axis;
     Vec3 relative = r.u + axial - shell, spin = s.angular_velocity[p] - w_wall, none = Vec3::Zero();
     const Vec3 relative_before = relative, spin_before = spin;
     const KickBodies bodies{s.inv_mass[p], s.inv_inertia[p], 0, s.radius[p] - 0.5 * polar.normal.delta, 0};
-    k.dissipated += tangential_kick(k.constants, set.friction, set.rolling, bodies, -polar.e,
-                                    normal_force(k, polar.normal), duration, relative, spin, none, k.history);
+    k.dissipated += tangential_kick(k.constants, set.friction, set.rolling, bodies, -polar.e, load, load_rate,
+                                    duration, relative, spin, none, k.history);
     const Vec3 dv = relative - relative_before;
     const Real dv_along = dv.dot(axis);
     du_along += dv_along;

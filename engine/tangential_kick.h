@@ -3,8 +3,8 @@
 // tangential and rolling channel of one contact advanced over tau with its geometry (normal, lever
 // arms) and normal force frozen, exactly in its modes and split at its mode switches (exact_friction.h).
 // Positions do not move here: the normal flow carries all displacement. The caller alternates this
-// with the exact normal flow in a symmetric (Strang) splitting, so the channel sees the normal force at
-// both ends of each piece (a trapezoid rule for its impulse, mu times the normal impulse while sliding).
+// with the exact normal flow in a symmetric (Strang) splitting and hands it the normal force over each
+// half piece as a line (exact_stepper.cpp, split_stretch).
 // Pure function: safe from any thread.
 #include "engine/contact_law.h"
 #include "engine/exact_friction.h"
@@ -21,14 +21,15 @@ struct KickBodies {
   Real arm_j;          // R_j - delta/2 [m]; unused for a wall
 };
 
-/// Advances the channel over tau [s] under the normal force `load` [N] (clamped at 0, as the law's limits
-/// are). n: unit normal from j into i. `relative`: velocity of i's centre against j's (a pair) or against
+/// Advances the channel over tau [s] under the normal force load + load_rate t [N], [N/s] (clamped at 0,
+/// as the law's limits are). n: unit normal from j into i. `relative`: velocity of i's centre against j's (a pair) or against
 /// the wall's material velocity at i's centre [m/s]; only its part across n changes. `spin_i`, `spin_j`:
 /// angular velocities [rad/s] (on a wall: i's relative to the wall's, and spin_j zero). The history's
 /// springs are first turned into the current tangent plane keeping their lengths (as contact_law.h does
 /// each step). Returns the energy the channel dissipated [J], in the frame where j's centre (or the wall
 /// material at i's centre) is at rest: the lab value, the wall's work being booked apart.
 Real tangential_kick(const LawConstants& c, bool friction, RollingKind rolling, const KickBodies& bodies, const Vec3& n,
-                     Real load, Real tau, Vec3& relative, Vec3& spin_i, Vec3& spin_j, ContactHistory& history);
+                     Real load, Real load_rate, Real tau, Vec3& relative, Vec3& spin_i, Vec3& spin_j,
+                     ContactHistory& history);
 
 }  // namespace dem
