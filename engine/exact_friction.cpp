@@ -322,7 +322,8 @@ Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, 
     int fired_at = -1;
     for (int k = 0; k < samples; ++k) {
       const Planar after = k + 1 == samples ? apply(exponential(left * gen), y, 0) : apply(step, before, k * dt);
-      if (can_switch && switching(c, lim_at(done + (k + 1 == samples ? left : (k + 1) * dt)), p, mode, after).value > 0) {
+      const Real at = done + (k + 1 == samples ? left : (k + 1) * dt);
+      if (can_switch && switching(c, lim_at(at), p, mode, after).value > 0) {
         fired_at = k;
         break;
       }

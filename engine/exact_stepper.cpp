@@ -470,11 +470,17 @@ Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const Exa
     s.velocity[p] = v_wall - after.rate * n + u_t + tau * g_t;
     return v_wall;
   }
+  // With friction the frame moves with the wall's material at the particle's centre and the spin is taken
+  // against the wall's: the slip v - v_wall(contact) - a w x n of contact_law.h (the frame at the contact
+  // point would be off by a w_wall x n on a rotating wall). Its normal velocity is the contact point's.
   const Vec3 w_wall = walls.angular_velocity(k.wall);
+  const Vec3 v_frame = walls.velocity_at(k.wall, s.position[p]);
+  const Vec3 spin_before = s.angular_velocity[p];
   const LawConstants& lc = k.constants;
   TangentialConstants c{s.inv_mass[p], s.inv_inertia[p], s.radius[p], set.friction, set.rolling,
                         lc.k_t, lc.c_t, lc.mu, lc.mu_s, lc.k_r, lc.c_r, lc.mu_r, lc.mu_rs, lc.r_star};
-  TangentialState ts{u_t, s.angular_velocity[p] - w_wall, Vec3::Zero()};
+  const Vec3 u_frame = s.velocity[p] - v_frame;
+  TangentialState ts{Vec3(u_frame - u_frame.dot(n) * n), s.angular_velocity[p] - w_wall, Vec3::Zero()};
   const Vec3 x0 = s.position[p];
   const int pieces = std::clamp(static_cast<int>(std::ceil(tau * o.omega0 / 0.5)), 1, 64);
   const Real piece = tau / pieces;
@@ -492,8 +498,8 @@ Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const Exa
       const NormalState at = advance_normal(o, set.separation, a, ns, ev.time);
       if (k.event_count < ExactInteraction::event_capacity)
         k.events[k.event_count] = {start_time + since, p, k.wall, ev.mode,
-                                   x0 + since * v_wall + (start.delta - at.delta) * n + ev.state.displacement,
-                                   v_wall - at.rate * n + ev.state.velocity, w_wall + ev.state.spin};
+                                   x0 + since * v_frame + (start.delta - at.delta) * n + ev.state.displacement,
+                                   v_frame - at.rate * n + ev.state.velocity, w_wall + ev.state.spin};
       ++k.event_count;
     }
     ns = ne;
@@ -501,12 +507,14 @@ Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const Exa
   const NormalState& after = ns;
   k.dissipated += k.effective_mass * (normal_energy(o, a, start, pushes(o, set.separation, start)) -
                                       normal_energy(o, a, after, pushes(o, set.separation, after)));
-  s.position[p] += tau * v_wall + (start.delta - after.delta) * n + ts.displacement;
-  s.velocity[p] = v_wall - after.rate * n + ts.velocity;
+  s.position[p] += tau * v_frame + (start.delta - after.delta) * n + ts.displacement;
+  s.velocity[p] = v_frame - after.rate * n + ts.velocity;
   s.angular_velocity[p] = w_wall + ts.spin;
+  // The wall's spin against the contact's angular impulse (its translation's work is booked by wall_flow).
+  k.work += w_wall.dot(s.angular_velocity[p] - spin_before) / s.inv_inertia[p];
   // The record lasts while the geometric overlap does (PHYSICS.md 1.1).
   if (!(after.delta > 0)) k.history = ContactHistory{};
-  return v_wall;
+  return v_frame;
 }
 
 /// The inside of a cylinder, in the frame of its axis (where the shell is at rest: a spin about its own
@@ -750,7 +758,7 @@ void find_missed(const State& s, const Walls& walls, const broadphase::Candidate
 
 Real compose(State& s, Walls& walls, const ExactSettings& set, Real t, Real h, ExactWorkspace& work);
 
-/// After an accepted step: the wall contacts' histories for the next step, keyed by particle id (the
+/// After an accepted step: the contacts' histories for the next step, keyed by particle ids (the
 /// interactions are in slot order, which is id order unless the slots were permuted: then sorted), and
 /// their mode switches appended in time order if recorded. Serial.
 void keep_histories(const State& s, ExactWorkspace& work) {
@@ -763,7 +771,8 @@ void keep_histories(const State& s, ExactWorkspace& work) {
     const bool kept = h.mode != 0 || h.tangential_spring != Vec3::Zero() || h.rolling_spring != Vec3::Zero();
     if (k.wall == ExactInteraction::no_wall) {
       if (kept)
-        work.history.push_back({exact_pair_history_key(s.id[k.i], s.id[k.j]), flipped(h, s.id[k.i] > s.id[k.j]), elastic});
+        work.history.push_back(
+            {exact_pair_history_key(s.id[k.i], s.id[k.j]), flipped(h, s.id[k.i] > s.id[k.j]), elastic});
       continue;
     }
     if (kept) work.history.push_back({exact_history_key(s.id[k.i], k.wall, k.feature), h, elastic});

@@ -5,7 +5,8 @@
 namespace dem {
 
 Real tangential_kick(const LawConstants& c, bool friction, RollingKind rolling, const KickBodies& bodies, const Vec3& n,
-                     Real load, Real load_rate, Real tau, Vec3& relative, Vec3& spin_i, Vec3& spin_j, ContactHistory& history) {
+                     Real load, Real load_rate, Real tau, Vec3& relative, Vec3& spin_i, Vec3& spin_j,
+                     ContactHistory& history) {
   history.tangential_spring = law_detail::project_keep_length(history.tangential_spring, n);
   history.rolling_spring = law_detail::project_keep_length(history.rolling_spring, n);
   TangentialConstants tc{bodies.inv_mass, bodies.inv_inertia_i, bodies.arm_i, friction, rolling, c.k_t, c.c_t, c.mu,

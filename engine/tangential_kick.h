@@ -22,12 +22,13 @@ struct KickBodies {
 };
 
 /// Advances the channel over tau [s] under the normal force load + load_rate t [N], [N/s] (clamped at 0,
-/// as the law's limits are). n: unit normal from j into i. `relative`: velocity of i's centre against j's (a pair) or against
-/// the wall's material velocity at i's centre [m/s]; only its part across n changes. `spin_i`, `spin_j`:
-/// angular velocities [rad/s] (on a wall: i's relative to the wall's, and spin_j zero). The history's
-/// springs are first turned into the current tangent plane keeping their lengths (as contact_law.h does
-/// each step). Returns the energy the channel dissipated [J], in the frame where j's centre (or the wall
-/// material at i's centre) is at rest: the lab value, the wall's work being booked apart.
+/// as the law's limits are). n: unit normal from j into i. `relative`: velocity of i's centre against
+/// j's (a pair) or against the wall's material velocity at i's centre [m/s]; only its part across n
+/// changes. `spin_i`, `spin_j`: angular velocities [rad/s] (on a wall: i's relative to the wall's, and
+/// spin_j zero). The history's springs are first turned into the current tangent plane keeping their
+/// lengths (as contact_law.h does each step). Returns the energy the channel dissipated [J], in the frame
+/// where j's centre (or the wall material at i's centre) is at rest: the lab value, the wall's work being
+/// booked apart.
 Real tangential_kick(const LawConstants& c, bool friction, RollingKind rolling, const KickBodies& bodies, const Vec3& n,
                      Real load, Real load_rate, Real tau, Vec3& relative, Vec3& spin_i, Vec3& spin_j,
                      ContactHistory& history);
