@@ -7,6 +7,7 @@
 
 #include "engine/contact_law.h"
 #include "engine/parallel.h"
+#include "engine/tangential_kick.h"
 
 namespace dem {
 namespace {
@@ -157,6 +158,7 @@ struct Stretch {
   NormalState end;
   Real time;  // [s]
   bool released;
+  Real forcing = 0;  // the constant forcing of the normal flow, a of PHYSICS.md 3.1 [m/s^2] (contact_stretch)
 };
 
 /// The exact normal flow from a pushing state (or one put on the onset condition) over at most `limit`
@@ -252,26 +254,136 @@ Stretch contact_stretch(ExactInteraction& k, Separation sep, const Radial& x, Po
   p.e = t.e;
   p.u_t = t.u_t + (0.5 * s.time) * (x.g - x.g.dot(t.e) * t.e);
   p.normal = s.end;
+  s.forcing = a;
+  return s;
+}
+
+/// The frictionless flows: no tangential channel.
+struct NoKick {
+  static constexpr bool active = false;
+  void operator()(Radial&, const Polar&, Real, Real, Real, Real) const {}
+};
+
+/// A tangential channel for radial_flow: a callable f(x, p, duration, elapsed, normal force [N] at the
+/// kick's start, its rate [N/s]).
+template <class F>
+struct Kicking {
+  static constexpr bool active = true;
+  const F& f;
+  void operator()(Radial& x, const Polar& p, Real duration, Real elapsed, Real load, Real load_rate) const {
+    f(x, p, duration, elapsed, load, load_rate);
+  }
+};
+
+bool has_tangential(const ExactSettings& set) { return set.friction || set.rolling != RollingKind::none; }
+
+/// At the release the normal force is zero and so are the friction limits: the law's sliding and rolling
+/// responses are zero, their springs reset (contact_law.h), and the springs' energy is dissipated.
+void release_springs(ExactInteraction& k) {
+  ContactHistory& h = k.history;
+  k.dissipated += 0.5 * k.constants.k_t * h.tangential_spring.squaredNorm() +
+                  0.5 * k.constants.k_r * h.rolling_spring.squaredNorm();
+  h.tangential_spring.setZero();
+  h.rolling_spring.setZero();
+  h.mode = static_cast<std::uint8_t>(h.mode | mode_sliding | mode_rolling);
+}
+
+/// Normal force of the contact in normal state n [N], k delta + c delta', at least 0.
+Real normal_force(const ExactInteraction& k, const NormalState& n) {
+  const NormalOscillator& o = k.oscillator;
+  return std::max(Real{0}, k.effective_mass * (o.omega0 * o.omega0 * n.delta + 2 * o.beta * n.rate));
+}
+
+/// One piece of a pushing stretch with the tangential channel split around it, K1(l/2) N(l) K2(l/2): K
+/// the kick (tangential_kick.h, geometry frozen), N the exact normal flow in polar form (contact_stretch).
+/// The piece is at most a quarter radian of the normal oscillator (or 1/128 of the flow) and ends at the
+/// release; both are found first on a copy, with the normal force at the piece's ends and its exact
+/// impulse J over the piece (m* times the forcing's change of delta' minus its actual change). The kicks
+/// see the normal force of the first and the second half of the piece as lines through its values at
+/// the start, the middle and the end (the middle from Simpson's rule on J), scaled so that together they
+/// carry J: a slide's friction impulse is mu J, exact (PHYSICS.md 3.3), and the static limits follow the
+/// force to second order. The approximation is the splitting, second order in the piece: the geometry
+/// (normal, lever arms) is frozen in each kick. `elapsed`: time of the piece's start from the start of
+/// the flow [s]. The kick changes only the velocity across the normal (and the spins), so the normal
+/// state stays the one the normal flow put on its events.
+template <class Kick>
+Stretch split_stretch(ExactInteraction& k, Separation sep, Radial& x, Polar& p, Real limit, Real tau, Real elapsed,
+                      Kick& kick) {
+  Real length = std::min(limit, std::max(Real{0.25} / k.oscillator.omega0, tau / 128));
+  Real start = normal_force(k, p.normal), middle = start, end = start;  // [N]
+  {
+    Radial trial_x = x;
+    Polar trial_p = p;
+    const Real dissipated = k.dissipated;
+    const Stretch trial = contact_stretch(k, sep, trial_x, trial_p, length, nullptr);
+    k.dissipated = dissipated;
+    if (trial.released) length = trial.time;
+    if (length > 0) {
+      const Real mean = k.effective_mass * (trial.forcing * length - (trial.end.rate - p.normal.rate)) / length;
+      end = trial.released ? 0 : normal_force(k, trial.end);
+      middle = std::max(Real{0}, (6 * mean - start - end) / 4);
+      const Real halves = start + 2 * middle + end;  // 4 / l times the kicks' impulse
+      if (halves > 0) {
+        const Real scale = std::max(Real{0}, 4 * mean) / halves;
+        start *= scale, middle *= scale, end *= scale;
+      }
+    }
+  }
+  if (!(length > 0)) return contact_stretch(k, sep, x, p, limit, nullptr);  // releases at once
+  const Real half = 0.5 * length;
+  const auto kick_half = [&](Real at, Real from, Real to) {
+    kick(x, p, half, at, from, (to - from) / half);
+    p.u_t = x.u - x.u.dot(p.e) * p.e;
+  };
+  kick_half(elapsed, start, middle);
+  Stretch s = contact_stretch(k, sep, x, p, length, nullptr);
+  set_cartesian(x, p);
+  if (!s.released && !pushes(k.oscillator, sep, p.normal)) {
+    // Cut at the release found on the copy, the piece may end on it or a hair past it: the contact has
+    // released, and the normal spring's residual energy is lost there, as contact_stretch books it.
+    s.released = true;
+    if (p.normal.delta > 0) {
+      const Real w = k.oscillator.omega0 * p.normal.delta;
+      k.dissipated += k.effective_mass * 0.5 * w * w;
+    }
+  }
+  kick_half(elapsed + s.time, middle, end);
+  if (s.released) release_springs(k);
   return s;
 }
 
 /// P_k(tau) of the relative motion. Apart: exact free flight, up to an onset found on the true path
 /// (first_entry), or, under force_zero with a residual overlap, up to the force rising through zero
 /// again (along the normal, to second order). Pushing: contact_stretch. Each stretch ends at an event,
-/// so an isolated head-on contact stays exact at any step.
-void radial_flow(Radial& x, ExactInteraction& k, Separation sep, Real tau, const PropagatorCoefficients* whole_step) {
+/// so an isolated head-on contact stays exact at any step. With a tangential channel (Kick::active), the
+/// pushing stretches are cut into the pieces of split_stretch.
+template <class Kick = NoKick>
+void radial_flow(Radial& x, ExactInteraction& k, Separation sep, Real tau, const PropagatorCoefficients* whole_step,
+                 Kick kick = {}) {
   const NormalOscillator& o = k.oscillator;
   Polar p = polar_of(x);
   bool pushing = pushes(o, sep, p.normal);
   Real left = tau;
   // A contact can only bounce so often within one step; past the cap, events are ignored so the flow
-  // always ends (round-off chatter at a graze).
+  // always ends (round-off chatter at a graze). A piece of a split stretch that ends without release is
+  // not a pass; past max_pieces (round-off stalling a release) the rest of the flow is frictionless.
+  constexpr int max_pieces = 4096;
+  int pieces = 0;
   for (int pass = 0; left > 0; ++pass) {
     if (pushing) {
-      const Stretch s = contact_stretch(k, sep, x, p, left, pass == 0 ? whole_step : nullptr);
-      set_cartesian(x, p);
-      if (!s.released) return;
-      left -= s.time;
+      if (Kick::active && pieces++ < max_pieces) {
+        const Stretch s = split_stretch(k, sep, x, p, left, tau, tau - left, kick);
+        left -= s.time;
+        if (!s.released) {
+          --pass;
+          continue;
+        }
+      } else {
+        const Stretch s = contact_stretch(k, sep, x, p, left, pass == 0 ? whole_step : nullptr);
+        set_cartesian(x, p);
+        if (!s.released) return;
+        left -= s.time;
+      }
       pushing = false;
       continue;
     }
@@ -305,7 +417,20 @@ void pair_flow(State& s, ExactInteraction& k, const ExactSettings& set, Real tau
   const Real inv_i = s.inv_mass[i], inv_j = s.inv_mass[j];
   const Vec3 gi = gravity_of(s, i, set.gravity), gj = gravity_of(s, j, set.gravity);
   Radial x{s.position[i] - s.position[j], s.velocity[i] - s.velocity[j], gi - gj, s.radius[i] + s.radius[j], -1};
-  radial_flow(x, k, set.separation, tau, k.half_step);
+  if (has_tangential(set)) {
+    // The tangential channel acts on the relative velocity and both spins; the normal is e, from j to i.
+    const auto kick = [&](Radial& r, const Polar& p, Real duration, Real, Real load, Real load_rate) {
+      const Real delta = p.normal.delta;
+      const KickBodies bodies{inv_i + inv_j, s.inv_inertia[i], s.inv_inertia[j], s.radius[i] - 0.5 * delta,
+                              s.radius[j] - 0.5 * delta};
+      k.dissipated += tangential_kick(k.constants, set.friction, set.rolling, bodies, p.e, load, load_rate, duration,
+                                      r.u, s.angular_velocity[i], s.angular_velocity[j], k.history);
+    };
+    radial_flow(x, k, set.separation, tau, nullptr, Kicking<decltype(kick)>{kick});
+    if (!(x.reach - x.r.norm() > 0)) k.history = ContactHistory{};  // the record lasts while the overlap does
+  } else {
+    radial_flow(x, k, set.separation, tau, k.half_step);
+  }
   // Centre of mass, weighted by the masses (an immovable partner carries it).
   const Real w_i = inv_i / (inv_i + inv_j), w_j = inv_j / (inv_i + inv_j);
   const Vec3 x_cm = w_j * s.position[i] + w_i * s.position[j];
@@ -345,11 +470,17 @@ Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const Exa
     s.velocity[p] = v_wall - after.rate * n + u_t + tau * g_t;
     return v_wall;
   }
+  // With friction the frame moves with the wall's material at the particle's centre and the spin is taken
+  // against the wall's: the slip v - v_wall(contact) - a w x n of contact_law.h (the frame at the contact
+  // point would be off by a w_wall x n on a rotating wall). Its normal velocity is the contact point's.
   const Vec3 w_wall = walls.angular_velocity(k.wall);
+  const Vec3 v_frame = walls.velocity_at(k.wall, s.position[p]);
+  const Vec3 spin_before = s.angular_velocity[p];
   const LawConstants& lc = k.constants;
   TangentialConstants c{s.inv_mass[p], s.inv_inertia[p], s.radius[p], set.friction, set.rolling,
                         lc.k_t, lc.c_t, lc.mu, lc.mu_s, lc.k_r, lc.c_r, lc.mu_r, lc.mu_rs, lc.r_star};
-  TangentialState ts{u_t, s.angular_velocity[p] - w_wall, Vec3::Zero()};
+  const Vec3 u_frame = s.velocity[p] - v_frame;
+  TangentialState ts{Vec3(u_frame - u_frame.dot(n) * n), s.angular_velocity[p] - w_wall, Vec3::Zero()};
   const Vec3 x0 = s.position[p];
   const int pieces = std::clamp(static_cast<int>(std::ceil(tau * o.omega0 / 0.5)), 1, 64);
   const Real piece = tau / pieces;
@@ -360,15 +491,15 @@ Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const Exa
     const Real load = std::max(Real{0}, k.effective_mass * (a * piece - (ne.rate - ns.rate)) / piece);
     c.arm = s.radius[p] - 0.5 * std::max(Real{0}, 0.5 * (ns.delta + ne.delta));
     TangentialEvents events;
-    k.dissipated += advance_tangential(c, n, load, g_t, piece, ts, k.history, &events);
+    k.dissipated += advance_tangential(c, n, load, 0, g_t, piece, ts, k.history, &events);
     for (int e = 0; e < events.count; ++e) {
       const TangentialEvent& ev = events.event[e];
       const Real since = j * piece + ev.time;
       const NormalState at = advance_normal(o, set.separation, a, ns, ev.time);
       if (k.event_count < ExactInteraction::event_capacity)
         k.events[k.event_count] = {start_time + since, p, k.wall, ev.mode,
-                                   x0 + since * v_wall + (start.delta - at.delta) * n + ev.state.displacement,
-                                   v_wall - at.rate * n + ev.state.velocity, w_wall + ev.state.spin};
+                                   x0 + since * v_frame + (start.delta - at.delta) * n + ev.state.displacement,
+                                   v_frame - at.rate * n + ev.state.velocity, w_wall + ev.state.spin};
       ++k.event_count;
     }
     ns = ne;
@@ -376,12 +507,14 @@ Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const Exa
   const NormalState& after = ns;
   k.dissipated += k.effective_mass * (normal_energy(o, a, start, pushes(o, set.separation, start)) -
                                       normal_energy(o, a, after, pushes(o, set.separation, after)));
-  s.position[p] += tau * v_wall + (start.delta - after.delta) * n + ts.displacement;
-  s.velocity[p] = v_wall - after.rate * n + ts.velocity;
+  s.position[p] += tau * v_frame + (start.delta - after.delta) * n + ts.displacement;
+  s.velocity[p] = v_frame - after.rate * n + ts.velocity;
   s.angular_velocity[p] = w_wall + ts.spin;
+  // The wall's spin against the contact's angular impulse (its translation's work is booked by wall_flow).
+  k.work += w_wall.dot(s.angular_velocity[p] - spin_before) / s.inv_inertia[p];
   // The record lasts while the geometric overlap does (PHYSICS.md 1.1).
   if (!(after.delta > 0)) k.history = ContactHistory{};
-  return v_wall;
+  return v_frame;
 }
 
 /// The inside of a cylinder, in the frame of its axis (where the shell is at rest: a spin about its own
@@ -399,9 +532,40 @@ Vec3 cylinder_flow(State& s, const Walls& walls, ExactInteraction& k, const Exac
   const Real u_along = u.dot(axis), g_along = g.dot(axis);
   const Real reach = walls.config(k.wall).radius - s.radius[p];
   Radial x{s.position[p] - centre, u - u_along * axis, g - g_along * axis, reach, 1};
-  radial_flow(x, k, set.separation, tau, k.half_step);
-  s.position[p] = centre + tau * v_frame + (tau * u_along + 0.5 * tau * tau * g_along) * axis + x.r;
-  s.velocity[p] = v_frame + (u_along + tau * g_along) * axis + x.u;
+  if (!has_tangential(set)) {
+    radial_flow(x, k, set.separation, tau, k.half_step);
+    s.position[p] = centre + tau * v_frame + (tau * u_along + 0.5 * tau * tau * g_along) * axis + x.r;
+    s.velocity[p] = v_frame + (u_along + tau * g_along) * axis + x.u;
+    return v_frame;
+  }
+  // The tangential channel against the shell's material, whose spin w_wall (frozen over tau) moves it at
+  // w_wall x r across the axis frame. The tangent plane holds the axis, so a kick also changes the speed
+  // along it: kept apart (du_along) with the displacement it adds until the end of the flow.
+  const Vec3 w_wall = walls.angular_velocity(k.wall);
+  const Real mass = 1 / s.inv_mass[p], inertia = 1 / s.inv_inertia[p];
+  Real du_along = 0, shift_along = 0;
+  const auto kick = [&](Radial& r, const Polar& polar, Real duration, Real elapsed, Real load, Real load_rate) {
+    const Vec3 shell = w_wall.cross(r.r);
+    const Vec3 axial = (u_along + du_along + elapsed * g_along) * axis;
+    Vec3 relative = r.u + axial - shell, spin = s.angular_velocity[p] - w_wall, none = Vec3::Zero();
+    const Vec3 relative_before = relative, spin_before = spin;
+    const KickBodies bodies{s.inv_mass[p], s.inv_inertia[p], 0, s.radius[p] - 0.5 * polar.normal.delta, 0};
+    k.dissipated += tangential_kick(k.constants, set.friction, set.rolling, bodies, -polar.e, load, load_rate,
+                                    duration, relative, spin, none, k.history);
+    const Vec3 dv = relative - relative_before;
+    const Real dv_along = dv.dot(axis);
+    du_along += dv_along;
+    shift_along += dv_along * (tau - elapsed);
+    r.u += dv - dv_along * axis;
+    s.angular_velocity[p] = w_wall + spin;
+    // The shell's work beyond the frame's translation (wall_flow books that part): its surface speed
+    // against the tangential impulse and its spin against the contact's angular impulse.
+    k.work += mass * shell.dot(dv) + inertia * w_wall.dot(spin - spin_before);
+  };
+  radial_flow(x, k, set.separation, tau, nullptr, Kicking<decltype(kick)>{kick});
+  s.position[p] = centre + tau * v_frame + (tau * u_along + 0.5 * tau * tau * g_along + shift_along) * axis + x.r;
+  s.velocity[p] = v_frame + (u_along + du_along + tau * g_along) * axis + x.u;
+  if (!(x.r.norm() - reach > 0)) k.history = ContactHistory{};  // the record lasts while the overlap does
   return v_frame;
 }
 
@@ -454,11 +618,20 @@ bool forced_contains(const std::vector<std::uint64_t>& forced, std::uint64_t key
   return std::binary_search(forced.begin(), forced.end(), key);
 }
 
-/// The history a wall contact carried out of the previous step, or a fresh one.
+/// The history a contact carried out of the previous step, or a fresh one.
 ContactHistory history_of(const ExactWorkspace& work, std::uint64_t key) {
   const auto it = std::lower_bound(work.history.begin(), work.history.end(), key,
                                    [](const ExactHistoryRecord& r, std::uint64_t x) { return r.key < x; });
   return it != work.history.end() && it->key == key ? it->history : ContactHistory{};
+}
+
+/// A pair's history seen from the other side: the springs (relative motion of i against j) change sign.
+ContactHistory flipped(ContactHistory h, bool flip) {
+  if (flip) {
+    h.tangential_spring = -h.tangential_spring;
+    h.rolling_spring = -h.rolling_spring;
+  }
+  return h;
 }
 
 void collect_interactions(const State& s, const Walls& walls, const MaterialTable& materials,
@@ -513,8 +686,12 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
       const EffectiveMasses m =
           effective_masses(s.inv_mass[a], s.inv_inertia[a], s.radius[a], s.inv_mass[b], s.inv_inertia[b], s.radius[b]);
       const LawConstants c = materials.constants(materials.pair_class(s.material[a], s.material[b]), m);
+      const ContactHistory history =
+          set.friction || set.rolling != RollingKind::none
+              ? flipped(history_of(work, exact_pair_history_key(s.id[a], s.id[b])), s.id[a] > s.id[b])
+              : ContactHistory{};
       work.interactions[slot++] = {a, b, ExactInteraction::no_wall, 0, oscillator_of(c, m.m_star), c.k_n, m.m_star, 0, 0,
-                                   nullptr, c, ContactHistory{}, 0, {}};
+                                   nullptr, c, history, 0, {}};
     }
     thread_local std::vector<std::uint32_t> features;
     for (std::size_t w = 0; w < walls.count(); ++w) {
@@ -581,17 +758,24 @@ void find_missed(const State& s, const Walls& walls, const broadphase::Candidate
 
 Real compose(State& s, Walls& walls, const ExactSettings& set, Real t, Real h, ExactWorkspace& work);
 
-/// After an accepted step: the wall contacts' histories for the next step, keyed by particle id (the
+/// After an accepted step: the contacts' histories for the next step, keyed by particle ids (the
 /// interactions are in slot order, which is id order unless the slots were permuted: then sorted), and
 /// their mode switches appended in time order if recorded. Serial.
 void keep_histories(const State& s, ExactWorkspace& work) {
   work.history.clear();
   const std::size_t first_event = work.events.size();
   for (const ExactInteraction& k : work.interactions) {
-    if (k.wall == ExactInteraction::no_wall) continue;
     const ContactHistory& h = k.history;
-    if (h.mode != 0 || h.tangential_spring != Vec3::Zero() || h.rolling_spring != Vec3::Zero())
-      work.history.push_back({exact_history_key(s.id[k.i], k.wall, k.feature), h});
+    const Real elastic = 0.5 * k.constants.k_t * h.tangential_spring.squaredNorm() +
+                         0.5 * k.constants.k_r * h.rolling_spring.squaredNorm();
+    const bool kept = h.mode != 0 || h.tangential_spring != Vec3::Zero() || h.rolling_spring != Vec3::Zero();
+    if (k.wall == ExactInteraction::no_wall) {
+      if (kept)
+        work.history.push_back(
+            {exact_pair_history_key(s.id[k.i], s.id[k.j]), flipped(h, s.id[k.i] > s.id[k.j]), elastic});
+      continue;
+    }
+    if (kept) work.history.push_back({exact_history_key(s.id[k.i], k.wall, k.feature), h, elastic});
     if (work.record_events)
       for (int e = 0; e < std::min<int>(k.event_count, ExactInteraction::event_capacity); ++e)
         work.events.push_back(k.events[e]);

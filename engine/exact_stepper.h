@@ -30,10 +30,22 @@
 // is advanced exactly in its modes, split at the mode switches, under the sub-step's mean normal force
 // (its exact normal impulse over the sub-step) and the lever arm at the mean overlap. That is exact for
 // a contact whose normal force is steady (a ball rolling on a slope) and first order in the sub-step
-// when the normal force varies within it (an impact). Pair contacts and cylinder walls stay
-// frictionless here: the World refuses friction with method exact where those can occur.
+// when the normal force varies within it (an impact).
+// On pair contacts and cylinder walls the normal moves with the motion, so the flow is split instead:
+// each pushing stretch is cut into pieces of at most a quarter radian of the normal oscillator (and at
+// the release), and a piece is K(l/2) N(l) K(l/2), N the exact polar normal flow above and K the exact
+// tangential and rolling channel (tangential_kick.h) with the geometry frozen and the normal force a line
+// fitted to the piece's exact normal impulse and end values. Stated approximation: a splitting second
+// order in the piece (measured: an oblique frictional 1 m/s collision at one contact per step within
+// 7e-5 m/s of the same at 1/40 of a contact, tests/exact_pair_friction_test.cpp); a slide's friction
+// impulse is mu times the exact normal impulse. Pair flows keep linear and angular momentum to
+// round-off (equal and opposite impulses at one contact point, lever arms a_i + a_j = |x_i - x_j|); the
+// contact law is contact_law.h's (switches on the spring force alone, the sliding spring at -F_t / k_t,
+// springs released at the force-zero instant). Histories are kept by particle ids
+// (exact_pair_history_key).
 // Threading: interactions of one colour run in parallel, each writing only its two particles and
 // its own slot; colours, pairs and sums are in fixed orders, so results do not depend on threads.
+#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <vector>
@@ -61,10 +73,11 @@ struct ExactModeEvent {
   Vec3 angular_velocity = Vec3::Zero();   // [rad/s]
 };
 
-/// Tangential and rolling history of a wall contact, kept by the exact stepper between steps.
+/// Tangential and rolling history of a contact, kept by the exact stepper between steps.
 struct ExactHistoryRecord {
-  std::uint64_t key;  // exact_history_key: the particle's id (State::id, not its slot), then the wall feature
-  ContactHistory history;
+  std::uint64_t key;  // exact_history_key or exact_pair_history_key (ids, not slots)
+  ContactHistory history;  // a pair's springs are those of the smaller id against the larger
+  Real elastic = 0;        // energy in its tangential and rolling springs [J], for the World's books
 };
 
 /// Key of a wall contact's history record: the particle's stable id in the high 32 bits, so that a
@@ -72,6 +85,17 @@ struct ExactHistoryRecord {
 /// all records of one particle are adjacent; the wall and feature in the low bits.
 inline std::uint64_t exact_history_key(ParticleId id, std::size_t wall, std::uint32_t feature) {
   return (std::uint64_t{id} << 32) | 0x80000000u | wall_feature_code(static_cast<std::uint32_t>(wall), feature);
+}
+
+/// Key of a pair contact's history record: the smaller id in the high 32 bits (so a particle's records
+/// stay adjacent, as exact_history_key's), the larger in the low bits, below the wall keys' flag bit.
+inline std::uint64_t exact_pair_history_key(ParticleId a, ParticleId b) {
+  return (std::uint64_t{std::min(a, b)} << 32) | std::max(a, b);
+}
+
+/// True when a history key names a contact of particle `id` (as either partner of a pair).
+inline bool exact_history_involves(std::uint64_t key, ParticleId id) {
+  return (key >> 32) == id || ((key & 0x80000000u) == 0 && static_cast<ParticleId>(key) == id);
 }
 
 /// One pair or wall contact taking part in an exact step.
@@ -86,7 +110,7 @@ struct ExactInteraction {
   Real dissipated;          // energy lost in this step [J]
   Real work;                // work the wall did on the particle in this step [J]; 0 for pairs
   const PropagatorCoefficients* half_step;  // table entry for h/2, or nullptr
-  LawConstants constants;   // friction and rolling constants (wall contacts)
+  LawConstants constants;   // friction and rolling constants
   ContactHistory history;   // tangential and rolling springs and mode, carried through the step
   std::uint8_t event_count;  // mode switches found in this step (at most event_capacity kept)
   ExactModeEvent events[4];
@@ -115,7 +139,7 @@ struct ExactWorkspace {
   static constexpr std::size_t table_capacity = 1 << 16;
   // Friction and rolling resistance on wall contacts (exact_friction.h).
   RollingKind rolling = RollingKind::standard;  // rolling variant when the materials have rolling resistance
-  std::vector<ExactHistoryRecord> history;      // wall contacts' histories (non-zero ones), sorted by key
+  std::vector<ExactHistoryRecord> history;      // contacts' histories (non-zero ones), sorted by key
   bool record_events = false;                   // append every mode switch to `events`
   std::vector<ExactModeEvent> events;           // mode switches in time order per step (if recorded)
 };
@@ -126,8 +150,8 @@ struct ExactSettings {
   int dimension;
   bool use_table = true;  // false: coefficients computed inline at every flow (for benchmarks)
   // Set by exact_step from the materials and ExactWorkspace::rolling (callers leave the defaults).
-  bool friction = false;                     // tangential spring-slider on wall contacts
-  RollingKind rolling = RollingKind::none;   // rolling resistance on wall contacts
+  bool friction = false;                     // tangential spring-slider on every contact
+  RollingKind rolling = RollingKind::none;   // rolling resistance on every contact
 };
 
 /// A pair joins a step's interactions when its gap is within this many times the free relative

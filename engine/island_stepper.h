@@ -5,7 +5,7 @@
 // kernels of the fixed control (Verlet kick-drift-forces-kick, or exact_step), three times per
 // attempt: once over h and twice over h/2. The per-particle error of seed formula (3) decides:
 // reject and retry at a finer level, or accept the two half steps and choose the next level.
-// With method exact the island also carries its members' wall-contact history (tangential and rolling
+// With method exact the island also carries its members' contact history (tangential and rolling
 // springs, modes), which the exact stepper reads by particle id.
 // Reads only its own copy; the World gathers islands from its state and scatters them back, so
 // islands are independent and may run in any order on any thread.

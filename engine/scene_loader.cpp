@@ -686,15 +686,6 @@ bool read_integrator(TableReader& top, Scene& scene) {
   c.richardson = r.boolean("richardson", c.richardson);
   c.error_per_unit_step = r.boolean("error_per_unit_step", c.error_per_unit_step);
   r.finish();
-  if (c.method == Method::exact)
-    for (const ContactConfig& contact : scene.world.contacts)
-      if ((contact.sliding_friction > 0 || contact.static_friction > 0 || contact.rolling_friction > 0 ||
-           contact.rolling_static_friction > 0) &&
-          (scene.world.particles.size() > 1 ||
-           std::any_of(scene.world.walls.begin(), scene.world.walls.end(),
-                       [](const WallConfig& w) { return w.kind == WallKind::cylinder; })))
-        r.fail("method", "method = \"exact\" handles friction and rolling resistance only for one particle on flat "
-                         "walls (plane, box) so far; use method = \"verlet\"");
   return level_max_given;
 }
 

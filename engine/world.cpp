@@ -41,11 +41,6 @@ World::World(const WorldConfig& config)
   gravity_ = config_.model.gravity;
   kernels_ = select_force_kernels(config_.model.separation, materials_.any_friction(),
                                   rolling_kind(materials_, config_.model.rolling_mode));
-  if (config_.integrator.method == Method::exact && (materials_.any_friction() || materials_.any_rolling()) &&
-      (config_.particles.size() > 1 ||
-       std::any_of(config_.walls.begin(), config_.walls.end(), [](const WallConfig& w) { return w.kind == WallKind::cylinder; })))
-    throw std::invalid_argument("method exact handles friction and rolling resistance only for one particle on flat "
-                                "walls (plane, box) so far: use method verlet");
   exact_work_.rolling = rolling_kind(materials_, config_.model.rolling_mode);
   add_particles();
   if (config_.broadphase.skin >= 0) {
@@ -216,8 +211,25 @@ Energies World::energies() const {
     e.potential = block_sum<Real>(s.size(), [&](std::size_t p) {
       return is_audited(s.inv_mass[p]) ? -gravity_.dot(s.position[p]) / s.inv_mass[p] : 0.0;
     });
-    e.elastic = block_sum<Real>(pairs_.size(), [&](std::size_t k) { return pairs_.elastic[k]; }) +
-                block_sum<Real>(wall_contacts_.size(), [&](std::size_t k) { return wall_contacts_.elastic[k]; });
+    if (config_.integrator.method == Method::exact) {
+      // The contact lists are evaluated only for outputs (h = 0): their normal springs are the exact
+      // state's, but the tangential and rolling springs live in the exact stepper's history. (A pair
+      // list books its normal spring apart only with collision spectra: k delta^2 / 2 from its overlap,
+      // nothing where a force_zero contact's force is clamped to zero.)
+      const std::vector<ExactHistoryRecord>& history = exact_work_.history;
+      const auto pair_spring = [&](std::size_t k) {
+        if (pairs_.force[k].isZero(0)) return Real{0};
+        const Real k_n = materials_.params(materials_.pair_class(s.material[pairs_.i[k]], s.material[pairs_.j[k]])).k_n;
+        return 0.5 * k_n * pairs_.overlap[k] * pairs_.overlap[k];
+      };
+      e.elastic = block_sum<Real>(pairs_.size(), pair_spring) +
+                  block_sum<Real>(wall_contacts_.size(),
+                                  [&](std::size_t k) { return wall_contacts_.history[k].normal_elastic; }) +
+                  block_sum<Real>(history.size(), [&](std::size_t k) { return history[k].elastic; });
+    } else {
+      e.elastic = block_sum<Real>(pairs_.size(), [&](std::size_t k) { return pairs_.elastic[k]; }) +
+                  block_sum<Real>(wall_contacts_.size(), [&](std::size_t k) { return wall_contacts_.elastic[k]; });
+    }
   });
   return e;
 }

@@ -203,7 +203,7 @@ class World {
   /// Adds a particle at the current sync time and returns its new id (ids are never reused).
   /// The particle must be in free space (is_free): throws std::invalid_argument when it overlaps a
   /// particle or a wall, names an unknown material, has a radius that is not > 0 and finite or a
-  /// non-finite state, or, for method exact with friction, would make more than one particle.
+  /// non-finite state.
   /// Contacts of the others keep their history; candidate pairs are rebuilt. Under step doubling
   /// it starts at the level particles start at (0, clamped to the levels). Energy books: its kinetic,
   /// rotational and potential energy join the balance's reference, as if present from the start.

@@ -120,10 +120,6 @@ ParticleId World::add_particle(const ParticleConfig& p) {
     throw std::invalid_argument("add_particle: the particle needs a finite radius > 0 and finite position and velocities");
   const int mat = materials_.find(p.material);
   if (mat < 0) throw std::invalid_argument("add_particle: unknown material '" + p.material + "'");
-  if (config_.integrator.method == Method::exact && (materials_.any_friction() || materials_.any_rolling()) &&
-      state_.size() >= 1)
-    throw std::invalid_argument("add_particle: method exact handles friction and rolling resistance only for one "
-                                "particle so far");
   const int dim = config_.model.dimension;
   // Mass and inertia as World::add_particles (world.cpp).
   const Real mass = particle_mass(p, materials_.density(static_cast<std::uint16_t>(mat)), dim, config_.model.thickness);
@@ -228,8 +224,8 @@ bool World::remove_particle(ParticleId id) {
   }
   wall_contacts_.resize(kept);
   removed_energy_ += carried;
-  // The exact stepper's wall-contact history is keyed by id.
-  std::erase_if(exact_work_.history, [id](const ExactHistoryRecord& r) { return (r.key >> 32) == id; });
+  // The exact stepper's contact histories are keyed by id (a pair's by both).
+  std::erase_if(exact_work_.history, [id](const ExactHistoryRecord& r) { return exact_history_involves(r.key, id); });
   state_.remove(slot);
   refresh_after_population_change();
   return true;

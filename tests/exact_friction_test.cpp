@@ -2,7 +2,7 @@
 // the seed slope of PHYSICS.md 6.8 (both rolling modes, sphere and disc) at dt = 0.1, 0.01 and 0.001
 // against the oracle table, where velocity Verlet at dt = 0.1 (omega0 dt = 2.24 > 2) fails; a sphere
 // and a disc launched sliding on a flat (6.3); a ball held at rest on an incline at a step longer than
-// the contact period (6.4); the World running the same flow as the stepper, and its refusals; the seed
+// the contact period (6.4); the World running the same flow as the stepper, and accepting pairs; the seed
 // slope under step doubling (PHYSICS.md 4): the oracle at two tolerances, restart bit for bit, and the
 // same hash for one and two threads.
 #include <gtest/gtest.h>
@@ -298,7 +298,9 @@ TEST(ExactFriction, HoldsABallAtRestOnAnInclineAtAnyStep) {
         }
 }
 
-TEST(ExactFriction, RefusesWhatItDoesNotHandle) {
+TEST(ExactFriction, AcceptsPairContactsAndCylinderWalls) {
+  // Pair contacts and cylinder walls carry the tangential channel too (tangential_kick.h): the World
+  // and the scene loader accept friction with several particles and with a cylinder.
   Scene scene = slope_scene(false, RollingMode::standard);
   scene.world.integrator.method = Method::exact;
   EXPECT_NO_THROW(World{scene.world});
@@ -306,11 +308,10 @@ TEST(ExactFriction, RefusesWhatItDoesNotHandle) {
   ParticleConfig q = two.world.particles[0];
   q.position.x() += 5;
   two.world.particles.push_back(q);
-  EXPECT_THROW(World{two.world}, std::invalid_argument) << "pair contacts are frictionless in the exact stepper";
-  Scene doubling = scene;
+  EXPECT_NO_THROW(World{two.world});
+  Scene doubling = two;
   doubling.world.integrator.control = Control::doubling;
-  EXPECT_NO_THROW(World{doubling.world}) << "one particle on flat walls: step doubling carries the history";
-  // The scene loader refuses the same, naming the key: the seed slope with a second ball.
+  EXPECT_NO_THROW(World{doubling.world});
   const auto path = std::filesystem::temp_directory_path() / "exact_friction_two_balls.toml";
   {
     std::ifstream in(source_dir + "/scenes/seed_slope.toml");
@@ -318,17 +319,9 @@ TEST(ExactFriction, RefusesWhatItDoesNotHandle) {
     out << std::string(std::istreambuf_iterator<char>(in), {})
         << "\n[[particles]]\nposition = [5.0, 0.0, 0.980780618756458]\nradius = 1.0\nmass = 4.0\n";
   }
-  try {
-    load_scene(path.string(), {"integrator.method=exact"});
-    ADD_FAILURE() << "no error";
-  } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("method"), std::string::npos) << e.what();
-  }
-  EXPECT_NO_THROW(load_scene(path.string()));
+  EXPECT_NO_THROW(load_scene(path.string(), {"integrator.method=exact"}));
+  EXPECT_NO_THROW(load_scene(path.string(), {"integrator.method=exact", "integrator.control=doubling"}));
   std::filesystem::remove(path);
-  EXPECT_NO_THROW(load_scene(source_dir + "/scenes/seed_slope.toml", {"integrator.method=exact"}));
-  EXPECT_NO_THROW(
-      load_scene(source_dir + "/scenes/seed_slope.toml", {"integrator.method=exact", "integrator.control=doubling"}));
 }
 
 // ---- Step doubling (PHYSICS.md 4): the island carries the wall contact's history through its trials --

@@ -174,17 +174,6 @@ TEST(ExactStepper, PackingConservesMomentumAndIsThreadIndependent) {
   }
 }
 
-TEST(ExactStepper, RefusesFrictionWherePairsCanTouch) {
-  // Friction and rolling resistance are exact on flat wall contacts only (exact_friction.h): one
-  // particle is accepted, two (a pair contact could form) are refused.
-  WorldConfig c = exact_config(1e-3);
-  c.contacts[0].sliding_friction = 0.5;
-  c.particles = {test::particle(Vec3::Zero(), Vec3::Zero(), 0.1, 1)};
-  EXPECT_NO_THROW(World{c});
-  c.particles.push_back(test::particle(Vec3(1, 0, 0), Vec3::Zero(), 0.1, 1));
-  EXPECT_THROW(World{c}, std::invalid_argument);
-}
-
 // ---- Oblique collisions ---------------------------------------------------------------------------
 
 /// Deflection of the relative velocity in an undamped collision of two spheres (potential
