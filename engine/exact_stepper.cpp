@@ -12,6 +12,10 @@
 namespace dem {
 namespace {
 
+/// The overlap watch looks for the peak inside a step only where the contact's energy could carry it
+/// beyond this fraction of the smaller radius (half the divergence limit of engine/cli/energy_audit.h).
+constexpr Real watch_depth = 0.25;
+
 constexpr Real never = std::numeric_limits<Real>::infinity();
 
 Vec3 gravity_of(const State& s, ParticleIndex p, const Vec3& g) { return s.inv_mass[p] > 0 ? g : Vec3(Vec3::Zero()); }
@@ -253,6 +257,7 @@ Stretch contact_stretch(ExactInteraction& k, Separation sep, const Radial& x, Po
   const Turn t = turn(s);
   p.e = t.e;
   p.u_t = t.u_t + (0.5 * s.time) * (x.g - x.g.dot(t.e) * t.e);
+  watch_overlap(k.watch, o, a, p.normal, s.time, s.end);
   p.normal = s.end;
   s.forcing = a;
   return s;
@@ -463,7 +468,7 @@ Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const Exa
   const Vec3 u_t = u + start.rate * n;
   const Vec3 g_t = g - g.dot(n) * n;
   if (!set.friction && set.rolling == RollingKind::none) {
-    const NormalState after = advance_normal(o, set.separation, a, start, tau, nullptr, k.half_step);
+    const NormalState after = advance_normal(o, set.separation, a, start, tau, nullptr, k.half_step, &k.watch);
     k.dissipated += k.effective_mass * (normal_energy(o, a, start, pushes(o, set.separation, start)) -
                                         normal_energy(o, a, after, pushes(o, set.separation, after)));
     s.position[p] += tau * v_wall + (start.delta - after.delta) * n + tau * u_t + (0.5 * tau * tau) * g_t;
@@ -486,7 +491,7 @@ Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const Exa
   const Real piece = tau / pieces;
   NormalState ns = start;
   for (int j = 0; j < pieces; ++j) {
-    const NormalState ne = advance_normal(o, set.separation, a, ns, piece);
+    const NormalState ne = advance_normal(o, set.separation, a, ns, piece, nullptr, nullptr, &k.watch);
     // The mean normal force over the sub-step from its exact impulse: m* (a t - change of delta').
     const Real load = std::max(Real{0}, k.effective_mass * (a * piece - (ne.rate - ns.rate)) / piece);
     c.arm = s.radius[p] - 0.5 * std::max(Real{0}, 0.5 * (ns.delta + ne.delta));
@@ -691,7 +696,7 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
               ? flipped(history_of(work, exact_pair_history_key(s.id[a], s.id[b])), s.id[a] > s.id[b])
               : ContactHistory{};
       work.interactions[slot++] = {a, b, ExactInteraction::no_wall, 0, oscillator_of(c, m.m_star), c.k_n, m.m_star, 0, 0,
-                                   nullptr, c, history, 0, {}};
+                                   nullptr, c, history, 0, {}, {watch_depth * std::min(s.radius[a], s.radius[b]), 0}};
     }
     thread_local std::vector<std::uint32_t> features;
     for (std::size_t w = 0; w < walls.count(); ++w) {
@@ -702,10 +707,26 @@ void collect_interactions(const State& s, const Walls& walls, const MaterialTabl
         const LawConstants c = materials.constants(materials.pair_class(s.material[a], walls.material(w)), m);
         work.interactions[slot++] = {a, a, static_cast<std::uint32_t>(w), f, oscillator_of(c, m.m_star), c.k_n,
                                      m.m_star, 0, 0, nullptr, c, history_of(work, exact_history_key(s.id[a], w, f)),
-                                     0, {}};
+                                     0, {}, {watch_depth * s.radius[a], 0}};
       }
     }
   });
+}
+
+}  // namespace
+
+namespace {
+
+/// The deepest overlap reached inside the step by any interaction, over the smaller radius involved.
+Worst deepest_interaction(const State& s, const std::vector<ExactInteraction>& interactions) {
+  Worst worst;
+  for (const ExactInteraction& k : interactions) {  // a maximum: exact in any order
+    const bool pair = k.wall == ExactInteraction::no_wall;
+    const Real radius = pair ? std::min(s.radius[k.i], s.radius[k.j]) : s.radius[k.i];
+    const ParticleId partner = pair ? s.id[k.j] : s.id[k.i];
+    worst = Worst::worse(worst, Worst{std::min(s.id[k.i], partner), std::max(s.id[k.i], partner), k.watch.deepest / radius, 0});
+  }
+  return worst;
 }
 
 }  // namespace
@@ -846,6 +867,7 @@ Real exact_step(State& s, Walls& walls, const MaterialTable& materials,
     if (!missed.empty()) ++work.unresolved;
     work.wall_work +=
         block_sum<Real>(work.interactions.size(), [&](std::size_t k) { return work.interactions[k].work; });
+    work.deepest = deepest_interaction(s, work.interactions);
     if (tangential) keep_histories(s, work);
     return dissipated;
   }

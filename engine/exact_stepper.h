@@ -58,6 +58,7 @@
 #include "engine/normal_flow.h"
 #include "engine/propagator.h"
 #include "engine/state.h"
+#include "engine/step_watch.h"
 #include "engine/walls.h"
 
 namespace dem {
@@ -114,6 +115,7 @@ struct ExactInteraction {
   ContactHistory history;   // tangential and rolling springs and mode, carried through the step
   std::uint8_t event_count;  // mode switches found in this step (at most event_capacity kept)
   ExactModeEvent events[4];
+  OverlapWatch watch;        // the deepest overlap reached inside this step (normal_flow.h)
   static constexpr std::uint8_t event_capacity = 4;
 
   static constexpr std::uint32_t no_wall = 0xffffffffu;
@@ -129,6 +131,7 @@ struct ExactWorkspace {
   std::uint64_t retries = 0;                       // steps redone because a contact was missed
   std::uint64_t unresolved = 0;  // steps accepted with a contact still missed after max_retries
   Real wall_work = 0;            // work done by moving walls on the particles, summed over steps [J]
+  Worst deepest;                 // the deepest overlap inside the last step, over the smaller radius
   int max_retries = 8;           // redos of one step before a missed contact is accepted (and counted)
   // Coefficient table (PHYSICS.md 3.2): one class per distinct (omega0, beta), built on demand for
   // the step h/2 in use; cleared when the step changes or the classes pass table_capacity (a wide

@@ -33,6 +33,7 @@ std::uint64_t step(IslandState& s, const broadphase::CandidatePairs& candidates,
     // The trial's own wall-contact history stands in for the workspace's while it steps.
     std::swap(scratch.exact.history, s.exact_history);
     s.exact_dissipated += exact_step(st, scratch.walls, *physics.materials, candidates, settings, t, h, scratch.exact);
+    s.exact_deepest = Worst::worse(s.exact_deepest, scratch.exact.deepest);
     std::swap(scratch.exact.history, s.exact_history);
     s.wall_work += scratch.exact.wall_work - wall_work;
     s.unresolved += scratch.exact.unresolved - unresolved;

@@ -18,6 +18,7 @@
 #include "engine/forces.h"
 #include "engine/materials.h"
 #include "engine/state.h"
+#include "engine/step_watch.h"
 #include "engine/walls.h"
 
 namespace dem {
@@ -31,6 +32,7 @@ struct IslandState {
   std::vector<Real> excursion;  // per member: farthest distance from its start of the round [m]
   Real ended_dissipation = 0;   // by contacts that ended (Verlet) [J]
   Real exact_dissipated = 0;    // by the exact stepper's flows [J]
+  Worst exact_deepest;          // the deepest overlap inside the exact stepper's steps (step_watch.h)
   Real wall_work = 0;           // by moving walls on the island [J]
   std::uint64_t unresolved = 0; // exact steps accepted with a contact still missed
   // The exact stepper's wall-contact springs and modes of the members (ExactWorkspace::history, keyed

@@ -115,22 +115,20 @@ void place_at_release(const NormalOscillator& o, Separation separation, NormalSt
   }
 }
 
-/// Records in `watch` the deepest overlap of a pushing segment of the flow from s over tau.
-void watch_segment(OverlapWatch* watch, const NormalOscillator& o, Real a, const NormalState& s, Real tau,
+}  // namespace
+
+void watch_overlap(OverlapWatch& watch, const NormalOscillator& o, Real a, const NormalState& s, Real tau,
                    const NormalState& end) {
-  if (!watch) return;
   Real deepest = std::max(s.delta, end.delta);
   if (o.omega0 > 0) {
-    // The shifted oscillator's energy bounds the overlap the segment can reach; only when that bound
+    // The shifted oscillator's energy bounds the overlap the stretch can reach; only when that bound
     // is of interest is the peak looked for.
     const Real rest = a / (o.omega0 * o.omega0);
     const Real reach = rest + std::hypot(s.delta - rest, s.rate / o.omega0);
-    if (reach > watch->depth_of_interest && reach > deepest) deepest = std::max(deepest, peak_overlap(o, a, s, tau));
+    if (reach > watch.depth_of_interest && reach > deepest) deepest = std::max(deepest, peak_overlap(o, a, s, tau));
   }
-  watch->deepest = std::max(watch->deepest, deepest);
+  watch.deepest = std::max(watch.deepest, deepest);
 }
-
-}  // namespace
 
 Real peak_overlap(const NormalOscillator& o, Real a, NormalState s, Real tau) {
   Real deepest = std::max(s.delta, oscillate(o, s, a, tau).delta);
@@ -174,7 +172,7 @@ NormalState advance_normal(const NormalOscillator& o, Separation separation, Rea
     const NormalState end = apply(*whole_step, s, a);
     const bool dipped = push_slope(o, separation, a, s) < 0 && push_slope(o, separation, a, end) > 0;
     if (pushes(o, separation, end) && !dipped) {
-      watch_segment(watch, o, a, s, tau, end);
+      if (watch) watch_overlap(*watch, o, a, s, tau, end);
       return end;
     }
   }
@@ -195,11 +193,11 @@ NormalState advance_normal(const NormalOscillator& o, Separation separation, Rea
                                : overlap_zero_time(o.omega0, o.beta, s.delta, s.rate, a);
       if (!(release < left)) {
         const NormalState end = oscillate(o, s, a, left);
-        watch_segment(watch, o, a, s, left, end);
+        if (watch) watch_overlap(*watch, o, a, s, left, end);
         return end;
       }
       const NormalState end = oscillate(o, s, a, release);
-      watch_segment(watch, o, a, s, release, end);
+      if (watch) watch_overlap(*watch, o, a, s, release, end);
       s = end;
       left -= release;
       place_at_release(o, separation, s);
@@ -216,7 +214,7 @@ NormalState advance_normal(const NormalOscillator& o, Separation separation, Rea
   }
   if (!in_contact) return free_flight(s, a, left);
   const NormalState end = oscillate(o, s, a, left);
-  watch_segment(watch, o, a, s, left, end);
+  if (watch) watch_overlap(*watch, o, a, s, left, end);
   return end;
 }
 

@@ -23,6 +23,15 @@ struct NormalOscillator {
 /// True when the contact pushes in state s: delta > 0 and, under force_zero, k delta + c delta' > 0.
 bool pushes(const NormalOscillator& o, Separation separation, const NormalState& s);
 
+/// The deepest overlap a flow reaches inside its step, for the divergence watch (PHYSICS.md 8: flag
+/// an overlap the linear law does not describe, even when a whole impact fits in one step). Cheap
+/// below `depth_of_interest`: a contact whose oscillator energy cannot carry it deeper reports the
+/// overlap at its ends; above, the true peak inside the step.
+struct OverlapWatch {
+  Real depth_of_interest = 0;  // [m]
+  Real deepest = 0;            // out: the largest overlap seen, max over calls [m]
+};
+
 /// Advances s over tau [s] under constant relative forcing a [m/s^2] (a = -(a_i - a_j) . n), through
 /// any number of onsets and releases (a long step may hold many bounces). A body touching at rest
 /// (delta = 0, delta' = 0) and pressed in (a > 0) starts a contact at once.
@@ -34,16 +43,13 @@ bool pushes(const NormalOscillator& o, Separation separation, const NormalState&
 /// release search is skipped.
 NormalState advance_normal(const NormalOscillator& o, Separation separation, Real a, NormalState s, Real tau,
                            int* events = nullptr, const PropagatorCoefficients* whole_step = nullptr,
-                           struct OverlapWatch* watch = nullptr);
+                           OverlapWatch* watch = nullptr);
 
-/// The deepest overlap a flow reaches inside its step, for the divergence watch (PHYSICS.md 8: flag
-/// an overlap the linear law does not describe, even when a whole impact fits in one step). Cheap
-/// below `depth_of_interest`: a contact whose oscillator energy cannot carry it deeper reports the
-/// overlap at its ends; above, the true peak inside the step.
-struct OverlapWatch {
-  Real depth_of_interest = 0;  // [m]
-  Real deepest = 0;            // out: the largest overlap seen, max over calls [m]
-};
+/// Records in `watch` the deepest overlap of a pushing stretch of the contact flow from s over tau,
+/// ending in `end`: the ends' overlap, or the true peak when the oscillator's energy could carry the
+/// contact beyond depth_of_interest.
+void watch_overlap(OverlapWatch& watch, const NormalOscillator& o, Real a, const NormalState& s, Real tau,
+                   const NormalState& end);
 
 /// Largest overlap on the contact flow from s over [0, tau] (the contact pushing throughout): the
 /// first maximum of delta(t), where delta' falls through 0, or an end. The shifted oscillator's

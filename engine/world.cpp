@@ -265,6 +265,10 @@ World::Culprit World::deepest_overlap() const {
 
 void World::watch_step(Real h) {
   Culprit deepest = deepest_contact(state_, pairs_, wall_contacts_);
+  // The exact stepper's flows also report the deepest overlap inside the step (a whole impact may
+  // fit in one); under doubling the islands pass theirs on in finish_round.
+  if (config_.integrator.method == Method::exact && config_.integrator.control == Control::fixed)
+    deepest = Culprit::worse(deepest, exact_work_.deepest);
   deepest.time = time();
   deepest_seen_ = Culprit::worse(deepest_seen_, deepest);
   if (config_.integrator.method == Method::verlet && config_.integrator.control == Control::fixed) {

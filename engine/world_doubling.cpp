@@ -245,6 +245,7 @@ void gather_island(const Islands& islands, const std::vector<std::uint32_t>& loc
   }
   job.island.adjacency.wall_start.clear();
   job.island.ended_dissipation = job.island.exact_dissipated = job.island.wall_work = 0;
+  job.island.exact_deepest = Worst{};
   job.island.unresolved = 0;
   std::vector<ExactHistoryRecord>& history = job.island.exact_history;
   history.clear();
@@ -410,6 +411,10 @@ void World::finish_round() {
     const IslandJob& job = d.jobs[d.job_of[k]];
     ended_dissipation_ += job.island.ended_dissipation;
     exact_dissipated_ += job.island.exact_dissipated;
+    if (job.island.exact_deepest.value > deepest_seen_.value) {  // the first of equals, in island order
+      deepest_seen_ = job.island.exact_deepest;
+      deepest_seen_.time = time();
+    }
     wall_work_ += job.island.wall_work;
     counters_.unresolved_contacts += job.island.unresolved;
   }
