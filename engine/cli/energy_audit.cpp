@@ -41,8 +41,10 @@ std::string EnergyAudit::check(const World& world) const {
   const World::Culprit& o = world.deepest_overlap_seen();
   if (o.value > overlap_limit) {
     if (o.particle == o.partner)
-      std::snprintf(text, sizeof text, "particle %u overlapped a wall by %.0f%% of its radius at t = %.9g s (limit %.0f%%; an impact "
-                  "this deep is outside the linear contact law: raise the contact's normal_stiffness or lower the impact speed)",
+      std::snprintf(text, sizeof text,
+                    "particle %u overlapped a wall by %.0f%% of its radius at t = %.9g s (limit %.0f%%; an impact "
+                    "this deep is outside the linear contact law: raise the contact's normal_stiffness or lower the "
+                    "impact speed)",
                     o.particle, 100 * o.value, o.time, 100 * overlap_limit);
     else
       std::snprintf(text, sizeof text,
