@@ -55,15 +55,21 @@ struct PairEnd {
   Real balance;  // largest |energy balance error| / scale over the run
 };
 
-PairEnd run_pair(const WorldConfig& c, Real until) {
-  World w(c);
-  const long steps = std::lround(until / c.integrator.dt);
+/// Runs w for `until` seconds of its fixed step; returns the largest |energy balance error| / scale.
+Real run_audited_balance(World& w, Real until) {
+  const long steps = std::lround(until / w.config().integrator.dt);
   Real worst = 0;
   for (long s = 0; s < steps; ++s) {
     EXPECT_EQ(w.advance_sync_interval(), StepStatus::ok);
     const EnergyBalance b = w.energy_balance();
     worst = std::max(worst, std::abs(b.error) / b.scale);
   }
+  return worst;
+}
+
+PairEnd run_pair(const WorldConfig& c, Real until) {
+  World w(c);
+  const Real worst = run_audited_balance(w, until);
   const State& s = w.state();
   return {s.velocity[0], s.velocity[1], s.angular_velocity[0], s.angular_velocity[1], worst};
 }
@@ -248,13 +254,7 @@ struct BallEnd {
 
 BallEnd run_ball(const WorldConfig& c, Real until) {
   World w(c);
-  const long steps = std::lround(until / c.integrator.dt);
-  Real worst = 0;
-  for (long s = 0; s < steps; ++s) {
-    EXPECT_EQ(w.advance_sync_interval(), StepStatus::ok);
-    const EnergyBalance b = w.energy_balance();
-    worst = std::max(worst, std::abs(b.error) / b.scale);
-  }
+  const Real worst = run_audited_balance(w, until);
   return {w.state().position[0], w.state().velocity[0], w.state().angular_velocity[0], worst};
 }
 
