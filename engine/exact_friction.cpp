@@ -6,6 +6,8 @@
 
 #include <Eigen/Geometry>
 
+#include "engine/propagator.h"
+
 namespace dem {
 namespace {
 
@@ -196,6 +198,76 @@ Planar apply(const Mat& e, const Planar& y, Real t) {
   return e.topLeftCorner<rows, rows>() * y + e.block<rows, 2>(0, forcing) + t * e.block<rows, 2>(0, ramp);
 }
 
+/// The exact flow of one piece: y at time start + t from y at time `start` (times since the piece's
+/// start, where its kinetic ramps begin). Without rolling resistance each direction is closed-form: in
+/// stick the slip u = v - a_i w_i - a_j w_j and the spring xi are the scalar oscillator of PHYSICS.md 3.1
+/// (omega^2 = k_t / m_t, 2 beta = c_t / m_t, forcing g), and v, w_i, w_j, x follow from the spring-dashpot
+/// force's impulse and its integral, both read off the change of u and xi; in slide the kinetic force
+/// is a known ramp, so the motion is a polynomial. With rolling resistance (two coupled channels) it is
+/// the exponential of the generator, the last one kept for the sampling's repeated interval.
+class PieceFlow {
+ public:
+  PieceFlow(const TangentialConstants& c, const Piece& p, const Vec2& g, const Limits& lim, const Limits& slope,
+            TangentialFlow kind)
+      : c_(c), p_(p), g_(g), lim_(lim), slope_(slope) {
+    inv_mt_ = c.inv_mass + c.arm * c.arm * c.inv_inertia + c.arm_j * c.arm_j * c.inv_inertia_j;
+    closed_ = kind == TangentialFlow::closed_form && c.rolling == RollingKind::none && inv_mt_ > 0;
+    if (!closed_) gen_ = generator(c, p, g, lim, slope);
+  }
+
+  Planar operator()(const Planar& y, Real start, Real t) const {
+    if (!closed_) {
+      if (!(t == cached_t_)) {
+        cached_ = exponential(t * gen_);
+        cached_t_ = t;
+      }
+      return apply(cached_, y, start);
+    }
+    Planar out = y;
+    const Real t2 = t * t;
+    if (p_.stick) {
+      const PropagatorCoefficients& k = recent_propagator(std::sqrt(c_.k_t * inv_mt_), 0.5 * c_.c_t * inv_mt_, t);
+      for (int d = 0; d < 2; ++d) {
+        const Real u0 = y(V, d) - c_.arm * y(W, d) - c_.arm_j * y(WJ, d), xi0 = y(XI, d), g = g_(d);
+        const Real d_xi = (k.phi11 - 1) * xi0 + k.phi12 * u0 + k.gamma1 * g;
+        const Real d_u = k.phi21 * xi0 + (k.phi22 - 1) * u0 + k.gamma2 * g;
+        const Real impulse = (d_u - g * t) / inv_mt_;                  // integral of F over t [N s]
+        const Real moment = (d_xi - u0 * t - 0.5 * g * t2) / inv_mt_;  // its integral [N s^2]
+        add_response(out, y, d, t, impulse, moment);
+        out(XI, d) += d_xi;
+      }
+    } else {
+      for (int d = 0; d < 2; ++d) {
+        // F = f0 + f1 s over the flow (s from its start), -mu F_n along the frozen slip direction.
+        const Real f1 = -slope_.slide * p_.slide(d), f0 = -lim_.slide * p_.slide(d) + f1 * start;
+        add_response(out, y, d, t, f0 * t + 0.5 * f1 * t2, (0.5 * f0 + f1 * t / 6) * t2);
+      }
+    }
+    return out;
+  }
+
+ private:
+  /// Moves direction d of `out` (a copy of y) under a tangential force of the given impulse and its
+  /// integral over t, with the body acceleration g.
+  void add_response(Planar& out, const Planar& y, int d, Real t, Real impulse, Real moment) const {
+    const Real g = g_(d);
+    out(X, d) += y(V, d) * t + c_.inv_mass * moment + 0.5 * g * t * t;
+    out(V, d) += c_.inv_mass * impulse + g * t;
+    out(W, d) -= c_.arm * c_.inv_inertia * impulse;
+    out(WJ, d) -= c_.arm_j * c_.inv_inertia_j * impulse;
+  }
+
+  const TangentialConstants& c_;
+  Piece p_;
+  Vec2 g_;
+  Limits lim_, slope_;
+  Real inv_mt_ = 0;
+  bool closed_ = false;
+  Mat gen_;
+  mutable Mat cached_;
+  mutable Real cached_t_ = -1;
+};
+
 /// Which switches have fired in state y (bits: 1 stick->slide, 2 slide->stick, 4 static->roll,
 /// 8 roll->static) and the largest switching function, scaled by its limit (> 0: fired).
 struct Switching {
@@ -261,7 +333,8 @@ void reset_kinetic_springs(const TangentialConstants& c, const Piece& p, std::ui
 }  // namespace
 
 Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, Real load_rate, const Vec3& g_t,
-                        Real tau, TangentialState& s, ContactHistory& history, TangentialEvents* events) {
+                        Real tau, TangentialState& s, ContactHistory& history, TangentialEvents* events,
+                        TangentialFlow kind) {
   // Tangent basis: e1 from a fixed axis, so an in-plane (2-D) wall keeps direction 2 along z.
   const Vec3 axis = std::abs(n.x()) < 0.9 ? Vec3(Vec3::UnitX()) : Vec3(Vec3::UnitY());
   const Vec3 e1 = (axis - axis.dot(n) * n).normalized(), e2 = n.cross(e1);
@@ -297,7 +370,8 @@ Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, 
     // Out of plane a kinetic direction turns as the slip (roll) changes: cut the piece where it would
     // have turned by turn_angle and take the direction predicted at the piece's middle (second order).
     bool turning = false;
-    if (turns < max_turns) {
+    const bool kinetic = (c.friction && !p.stick) || (rolling_active(c, mode) && !p.hold);
+    if (kinetic && turns < max_turns) {
       const Planar rate = apply_rate(generator(c, p, g, lim, slope), y, 0);
       const Real t = kinetic_turn_time(c, p, mode, y, rate);
       if (t < left) {
@@ -310,24 +384,25 @@ Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, 
         if (middle.roll.dot(p.roll) > 0) p.roll = middle.roll;
       }
     }
-    const Mat gen = generator(c, p, g, lim, slope);
+    const PieceFlow flow(c, p, g, lim, slope, kind);
     const bool can_switch = switches < max_events;
     // Bracket the first switch by sampling at a quarter of the fastest period (a linear piece needs
     // one interval: its switching functions are monotone).
     const Real rate = fastest_rate(c, p);
     const int samples = can_switch ? std::clamp(static_cast<int>(std::ceil(left * rate / (0.25 * pi))), 1, 4096) : 1;
     const Real dt = left / samples;
-    const Mat step = samples > 1 ? exponential(dt * gen) : Mat();
     Planar before = y;
     int fired_at = -1;
+    Real value_before = can_switch ? switching(c, lim, p, mode, y).value : 0, value_after = 0;
     for (int k = 0; k < samples; ++k) {
-      const Planar after = k + 1 == samples ? apply(exponential(left * gen), y, 0) : apply(step, before, k * dt);
+      const Planar after = k + 1 == samples ? flow(y, 0, left) : flow(before, k * dt, dt);
       const Real at = done + (k + 1 == samples ? left : (k + 1) * dt);
-      if (can_switch && switching(c, lim_at(at), p, mode, after).value > 0) {
+      if (can_switch && (value_after = switching(c, lim_at(at), p, mode, after).value) > 0) {
         fired_at = k;
         break;
       }
       before = after;
+      value_before = value_after;
     }
     if (fired_at < 0) {
       y = before;
@@ -338,18 +413,51 @@ Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, 
       p = piece_of(c, y, mode);
       continue;
     }
-    // Bisect [lo, hi] (times from `before`) down to round-off; the switch is at hi, where it has fired.
+    // Narrow [lo, hi] (times from `before`) down to round-off; the switch is at hi, where it has fired.
+    // Regula falsi with the Illinois rule (an end kept twice has its value halved, so both ends close
+    // in), bisecting where the interpolation fails or has moved the same end three times running: the
+    // switching function is smooth between kinks, so this takes a few evaluations where bisection
+    // takes fifty.
     const Real start = fired_at * dt;
     Real lo = 0, hi = fired_at + 1 == samples ? left - start : dt;
-    for (int it = 0; it < 200; ++it) {
-      const Real mid = lo + 0.5 * (hi - lo);
+    // A start already past a threshold by less than settle()'s tolerance switches at once.
+    if (value_before > 0) hi = 0;
+    Real f_lo = std::min(value_before, Real{0}), f_hi = value_after;
+    const Real resolution = 4 * std::numeric_limits<Real>::epsilon() * tau;
+    const auto value_at = [&](Real t) { return switching(c, lim_at(done + start + t), p, mode, flow(before, start, t)).value; };
+    // An end exactly on a threshold (a slide at zero slip, or a hit of the root itself) is the switch
+    // when the function has risen by the time round-off resolves: probed once, so that no bisection
+    // walks down to it from the whole interval.
+    const auto probe_past_lo = [&] {
+      if (!(f_lo == 0 && lo + resolution < hi)) return;
+      const Real f = value_at(lo + resolution);
+      if (f > 0) hi = lo + resolution, f_hi = f;
+      else lo += resolution, f_lo = f;
+    };
+    probe_past_lo();
+    // Done when the bracket reaches the time's round-off or the fired end's value that of the function.
+    const Real small = 1e-13 * std::max(-f_lo, f_hi);
+    int kept = 0, run = 0;  // kept: +1 hi moved last, -1 lo moved last; run: times in a row
+    for (int it = 0; it < 200 && hi - lo > resolution && f_hi > small; ++it) {
+      // At least half the resolution from either end: an interpolation onto an end whose value is
+      // round-off then closes the bracket at once.
+      Real mid = std::clamp(lo + (hi - lo) * (-f_lo / (f_hi - f_lo)), lo + 0.5 * resolution, hi - 0.5 * resolution);
+      if (!(mid > lo && mid < hi) || run >= 3) mid = lo + 0.5 * (hi - lo);
       if (!(mid > lo && mid < hi)) break;
-      if (switching(c, lim_at(done + start + mid), p, mode, apply(exponential(mid * gen), before, start)).value > 0)
-        hi = mid;
-      else
-        lo = mid;
+      const Real f = value_at(mid);
+      const int side = f > 0 ? 1 : -1;
+      run = side == kept ? run + 1 : 1;
+      if (side == 1) {
+        hi = mid, f_hi = f;
+        if (kept == 1) f_lo *= 0.5;
+      } else {
+        lo = mid, f_lo = f;
+        if (kept == -1) f_hi *= 0.5;
+      }
+      kept = side;
+      probe_past_lo();
     }
-    y = apply(exponential(hi * gen), before, start);
+    y = flow(before, start, hi);
     const unsigned fired = switching(c, lim_at(done + start + hi), p, mode, y).fired;
     done += start + hi;
     const Limits now = lim_at(done);

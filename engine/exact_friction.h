@@ -20,7 +20,8 @@
 // growing with time, R makes the ramp). In stick with
 // kinetic rolling it is the scalar oscillator of PHYSICS.md 3.1 in u with the tangential mass m_t,
 // 1/m_t = 1/m + a_i^2/I_i + a_j^2/I_j; with the static hold it is that oscillator coupled to the rolling
-// spring. The moments of F and M on i and j are equal and opposite about the contact point, so the
+// spring. Without rolling resistance the pieces use those closed forms (the scalar propagator in stick,
+// a polynomial in slide) instead of the exponential, which then only checks them (TangentialFlow). The moments of F and M on i and j are equal and opposite about the contact point, so the
 // flow keeps the angular momentum of the pair (to round-off of the exponential).
 // Switches (PHYSICS.md 1.5), each a root of a smooth function of time along the exact flow:
 //   stick -> slide   |k_t xi| or |c_t u| reaches mu_s F_n (the law's conditions);
@@ -29,8 +30,8 @@
 //   roll -> static   w reverses against its direction at the start of the roll; the hold starts
 //                    unloaded (contact_law.h rolling_spring);
 //   seed mode: no rolling torque while sliding (the rolling spring is released).
-// Roots are bracketed by sampling at a quarter of the fastest active period, then bisected to
-// round-off; the flow continues in the new mode from the root.
+// Roots are bracketed by sampling at a quarter of the fastest active period, then narrowed to
+// round-off (regula falsi with the Illinois rule); the flow continues in the new mode from the root.
 // Approximations (stated as PHYSICS.md 3.3 asks): the normal force F_n is linear in time and the lever
 // arm a constant over a call (the flat wall flow calls this per sub-step with the mean F_n of the exact
 // normal flow, so the friction and rolling impulses of a sub-step without switch are exact: mu times the
@@ -83,6 +84,10 @@ struct TangentialEvents {
   TangentialEvent event[capacity];
 };
 
+/// How a mode piece is propagated: closed forms where the channel is one oscillator or a polynomial (no
+/// rolling resistance; the fast path), or the matrix exponential in every mode (an independent check).
+enum class TangentialFlow { closed_form, matrix_exponential };
+
 /// Advances the channel over tau [s] under the normal force load + load_rate t [N] (t from the start of the
 /// call; kept >= 0) and tangential body acceleration g_t [m/s^2] (perpendicular to the unit normal n,
 /// which points into the particle). The kinetic force and torque follow the normal force exactly (its
@@ -91,6 +96,7 @@ struct TangentialEvents {
 /// Returns the energy the channel dissipated [J] (sliding, dashpots, and springs released at switches).
 /// `events` (optional) receives the switches, in time order.
 Real advance_tangential(const TangentialConstants& c, const Vec3& n, Real load, Real load_rate, const Vec3& g_t,
-                        Real tau, TangentialState& s, ContactHistory& history, TangentialEvents* events = nullptr);
+                        Real tau, TangentialState& s, ContactHistory& history, TangentialEvents* events = nullptr,
+                        TangentialFlow kind = TangentialFlow::closed_form);
 
 }  // namespace dem

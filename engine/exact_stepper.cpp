@@ -166,9 +166,10 @@ struct Stretch {
 };
 
 /// The exact normal flow from a pushing state (or one put on the onset condition) over at most `limit`
-/// under constant forcing a, cut at the first release. With the table (`whole_step`, a stretch over the
-/// whole flow from a pushing state), advance_normal decides whether the contact releases within the
-/// step at all (it may skip the search, PHYSICS.md 3.2); the release time itself is searched here.
+/// under constant forcing a, cut at the first release. With coefficients for exactly `limit`
+/// (`whole_step`: the table's for a stretch over the whole flow, or contact_stretch's own for a short
+/// one), advance_normal decides whether the contact releases within it at all (it may skip the search,
+/// PHYSICS.md 3.2); the release time itself is searched here.
 Stretch push(const NormalOscillator& o, Separation sep, Real a, const NormalState& s, Real limit,
              const PropagatorCoefficients* whole_step) {
   const auto at = [&](const PropagatorCoefficients& c) {
@@ -229,6 +230,14 @@ Stretch contact_stretch(ExactInteraction& k, Separation sep, const Radial& x, Po
   const bool gravity_on = x.g != Vec3::Zero();
   const Real speed0 = p.u_t.norm();
   Real a = x.sigma * x.g.dot(e0) + (rho0 > 0 ? x.sigma * speed0 * speed0 / rho0 : 0.0);
+  // Without the table, a stretch within advance_normal's quarter period (every piece of split_stretch)
+  // gets its own coefficients: they rule out a release without a root search, and the fixed-point
+  // iteration below then needs no new flow.
+  PropagatorCoefficients own;
+  if (!whole_step && limit * o.omega0 <= 0.5 * pi && pushes(o, sep, p.normal)) {
+    own = recent_propagator(o.omega0, o.beta, limit);
+    whole_step = &own;
+  }
   Stretch s = push(o, sep, a, p.normal, limit, whole_step);
   for (int iteration = 0; iteration < 8 && rho0 > 0; ++iteration) {
     const Real rho1 = radius_of(x, s.end);

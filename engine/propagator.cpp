@@ -319,6 +319,22 @@ Real overlap_zero_time(Real omega0, Real beta, Real delta0, Real rate0, Real a) 
   return first_root(Trajectory{omega0, beta, delta0, rate0, a, Quantity::overlap}, sign, m, t1);
 }
 
+const PropagatorCoefficients& recent_propagator(Real omega0, Real beta, Real h) {
+  struct Entry {
+    Real omega0 = -1, beta = -1, h = -1;
+    PropagatorCoefficients coefficients{};
+  };
+  constexpr int size = 4;
+  thread_local Entry entries[size];
+  thread_local int next = 0;
+  for (Entry& e : entries)
+    if (e.omega0 == omega0 && e.beta == beta && e.h == h) return e.coefficients;
+  Entry& e = entries[next];
+  next = (next + 1) % size;
+  e = {omega0, beta, h, propagator(omega0, beta, h)};
+  return e.coefficients;
+}
+
 const PropagatorCoefficients& PropagatorTable::get(std::uint32_t cls, int level, Real omega0, Real beta,
                                                    Real dt_base) {
   const Real h = std::ldexp(dt_base, level);

@@ -35,6 +35,12 @@ struct PropagatorCoefficients {
 /// ([[1, h], [0, 1]], gamma1 = h^2/2, gamma2 = h for beta = 0 as well).
 PropagatorCoefficients propagator(Real omega0, Real beta, Real h);
 
+/// propagator(omega0, beta, h) through a small per-thread memory of the last few distinct arguments:
+/// the exact stepper asks for the same coefficients several times in a row (a piece's trial and final
+/// normal flow, the two tangential kicks around it). Bit-identical to propagator(); the reference
+/// stays valid until this thread's next call.
+const PropagatorCoefficients& recent_propagator(Real omega0, Real beta, Real h);
+
 /// First time t > 0 [s] at which the spring-dashpot force k delta + c delta' vanishes
 /// (equivalently omega0^2 delta + 2 beta delta' = 0) along the exact trajectory from
 /// (delta0 [m], rate0 [m/s]) under constant a [m/s^2]; +infinity if it never does (also for the
