@@ -79,10 +79,12 @@ bool rolling_active(const TangentialConstants& c, std::uint8_t mode) {
 void settle(const TangentialConstants& c, const Limits& lim, Planar& y, std::uint8_t& mode) {
   constexpr Real tol = 1 + 1e-12;
   if (c.friction) {
-    const Real spring = c.k_t * Vec2(y.row(XI).transpose()).norm();
-    const Real u = slip(c, y).norm();
+    const Vec2 xi = y.row(XI).transpose(), slip_velocity = slip(c, y);
+    const Real spring = c.k_t * xi.norm(), u = slip_velocity.norm();
+    const Real force = Vec2(c.k_t * xi + c.c_t * slip_velocity).norm();
     if (!(mode & mode_sliding)) {
-      if (!(lim.stick > 0) || spring > tol * lim.stick || c.c_t * u > tol * lim.stick) mode |= mode_sliding;
+      if (!(lim.stick > 0) || spring > tol * lim.stick || c.c_t * u > tol * lim.stick || force > tol * lim.stick)
+        mode |= mode_sliding;
     } else if (u == 0 && lim.stick > 0 && spring <= lim.stick) {
       mode &= static_cast<std::uint8_t>(~mode_sliding);
     }
@@ -284,8 +286,12 @@ Switching switching(const TangentialConstants& c, const Limits& lim, const Piece
   };
   const Vec2 u = slip(c, y), w = rolling_rate(y);
   if (p.stick) {
-    add(c.k_t * Vec2(y.row(XI).transpose()).norm() / lim.stick - 1, 1);
+    // The law's conditions (the spring alone, the dashpot alone), and the static force itself: it
+    // never exceeds mu_s F_n (contact_law.h caps the sum; a flow slides instead).
+    const Vec2 xi = y.row(XI).transpose();
+    add(c.k_t * xi.norm() / lim.stick - 1, 1);
     add(c.c_t * u.norm() / lim.stick - 1, 1);
+    add(Vec2(c.k_t * xi + c.c_t * u).norm() / lim.stick - 1, 1);
   } else if (c.friction && lim.slide > 0 && p.slide.norm() > 0) {
     add(-u.dot(p.slide), 2);  // the slip turned towards the kinetic force [m/s]
   }

@@ -24,7 +24,8 @@
 // a polynomial in slide) instead of the exponential, which then only checks them (TangentialFlow). The moments of F and M on i and j are equal and opposite about the contact point, so the
 // flow keeps the angular momentum of the pair (to round-off of the exponential).
 // Switches (PHYSICS.md 1.5), each a root of a smooth function of time along the exact flow:
-//   stick -> slide   |k_t xi| or |c_t u| reaches mu_s F_n (the law's conditions);
+//   stick -> slide   |k_t xi| or |c_t u| reaches mu_s F_n (the law's conditions), or the static force
+//                    |k_t xi + c_t u| itself does (the law caps it there; a flow slides instead);
 //   slide -> stick   the slip u reverses against its direction at the start of the slide;
 //   static -> roll   |k_r theta| or |c_r w| reaches mu_rs R* F_n;
 //   roll -> static   w reverses against its direction at the start of the roll; the hold starts

@@ -337,7 +337,7 @@ TEST(ExactFriction, ClosedFormPiecesMatchTheMatrixExponential) {
     return lo + (hi - lo) * static_cast<Real>(seed >> 11) * 0x1.0p-53;
   };
   const auto vec = [&](Real scale) { return Vec3(uniform(-scale, scale), uniform(-scale, scale), uniform(-scale, scale)); };
-  int switched = 0, calls = 0, loose = 0;
+  int switched = 0, calls = 0, loose = 0, sticking = 0;
   for (int trial = 0; trial < 400; ++trial) {
     const bool pair = trial % 2 == 1;
     const Real mass = uniform(0.01, 4), radius = uniform(0.005, 0.5), inertia = 0.4 * mass * radius * radius;
@@ -384,10 +384,37 @@ TEST(ExactFriction, ClosedFormPiecesMatchTheMatrixExponential) {
     // the square root of round-off), so a few long calls differ by more than round-off: bounded, and rare.
     EXPECT_LT(worst, 1e-6) << "trial " << trial;
     loose += worst > 1e-10;
+    // A contact that sticks at the end holds a static force within mu_s F_n (PHYSICS.md 1.3).
+    if (!(h_closed.mode & mode_sliding)) {
+      const Vec3 u = closed.velocity - c.arm * closed.spin.cross(n) - c.arm_j * closed.spin_j.cross(n);
+      const Vec3 slip = u - u.dot(n) * n;
+      const Real static_force = (c.k_t * h_closed.tangential_spring + c.c_t * slip).norm();
+      const Real limit = c.mu_s * std::max(Real{0}, load + load_rate * tau);
+      EXPECT_LE(static_force, (1 + 1e-9) * limit + 1e-12 * c.mu_s * load) << "trial " << trial;
+      ++sticking;
+    }
   }
   EXPECT_LE(loose, calls / 50) << "calls that differ by more than 1e-10 of their scale";
   // The cases must exercise the switches, not only steady pieces.
   EXPECT_GT(switched, calls / 5);
+  EXPECT_GT(sticking, calls / 10);
+}
+
+TEST(ExactFriction, AStaticForceBeyondMuSTimesTheLoadSlides) {
+  // Spring and dashpot each within mu_s F_n but their sum beyond it: the static force cannot hold
+  // (contact_law.h caps the sum), so the exact channel slides at once; at 0.9 of the limit it sticks.
+  const Vec3 n(0, 0, 1), e(1, 0, 0);
+  const Real mass = 1, radius = 0.1, load = 10;
+  const TangentialConstants c{1 / mass, 1 / (0.4 * mass * radius * radius), radius, true, RollingKind::none,
+                              1e4, 20, 0.5, 0.5, 0, 0, 0, 0, 0};
+  const Real limit = c.mu_s * load;
+  for (const Real total : {1.3, 0.9}) {
+    ContactHistory history;
+    history.tangential_spring = (0.5 * total * limit / c.k_t) * e;
+    TangentialState s{(0.5 * total * limit / c.c_t) * e, Vec3::Zero(), Vec3::Zero()};
+    advance_tangential(c, n, load, 0, Vec3::Zero(), 1e-9, s, history);
+    EXPECT_EQ((history.mode & mode_sliding) != 0, total > 1) << "static force " << total << " of mu_s F_n";
+  }
 }
 
 // ---- Step doubling (PHYSICS.md 4): the island carries the wall contact's history through its trials --
