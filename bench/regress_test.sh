@@ -2,22 +2,33 @@
 # The ctest cases of bench/regress (issue 6, part 4), on its --quick subset; run serially:
 #   regress_test.sh baseline BUILD DIR          a fresh run of BUILD becomes DIR/baseline.json
 #   regress_test.sh fresh BUILD DIR             another fresh run of the same build passes (exit code 0;
-#                                               one rerun when the first flags a regression)
+#                                               one rerun when the first flags a regression, and a
+#                                               last one against a new baseline)
 #   regress_test.sh slowdown BUILD DIR [NAME]   the hook adds 25% to NAME (default
 #                                               grid_build_and_pairs/10000, 2 threads): exit code 1,
 #                                               that benchmark flagged as a regression and named
-#                                               (up to three runs until one flags it)
+#                                               (up to three runs until one flags it, the
+#                                               last against a new baseline)
 # When other work holds the 2 cores, bench/regress does not judge 2-thread benchmarks (exit code 3):
 # this script then exits 77, which ctest reports as skipped.
 set -uo pipefail
 mode=$1 build=$2 dir=$3 target=${4:-grid_build_and_pairs/10000}
 regress="$(dirname "$0")/regress"
 mkdir -p "$dir"
-run() {  # run LOG ARGS...: bench/regress --quick against DIR/baseline.json, output to LOG too
+baseline_file="$dir/baseline.json"
+run() {  # run LOG ARGS...: bench/regress --quick against $baseline_file, output to LOG too
   local log=$1
   shift
-  "$regress" --quick --build "$build" --baseline "$dir/baseline.json" "$@" 2>&1 | tee "$log"
+  "$regress" --quick --build "$build" --baseline "$baseline_file" "$@" 2>&1 | tee "$log"
   return "${PIPESTATUS[0]}"
+}
+# The baseline run itself can be the outlier (two fresh runs of one build measured 30% slower than
+# it, both significant): a last try takes a new baseline of the same build first.
+retake_baseline() {
+  echo "regress_test: the baseline run may be the outlier: taking it again for a last try" >&2
+  baseline_file="$dir/baseline_again.json"
+  env -u DEM_BENCH_SLOWDOWN "$regress" --quick --build "$build" --baseline "$baseline_file" --update-baseline \
+    --out "$dir/baseline_again_run.json" > "$dir/baseline_again.log" 2>&1 || return 1
 }
 busy() {
   echo "regress_test: skipped: the 2 cores were busy with other work, so bench/regress did not judge" >&2
@@ -41,6 +52,11 @@ case $mode in
       rc=$?
       [ "$rc" -eq 3 ] && busy
     fi
+    if [ "$rc" -eq 1 ] && retake_baseline; then
+      run "$dir/fresh_last.log" --out "$dir/fresh_last.json"
+      rc=$?
+      [ "$rc" -eq 3 ] && busy
+    fi
     if [ "$rc" -ne 0 ]; then
       echo "regress_test: two fresh runs of one build must pass; bench/regress exited with $rc" >&2
       exit 1
@@ -56,6 +72,7 @@ case $mode in
     for attempt in 2 3; do
       [ "$rc" -eq 0 ] || break
       echo "regress_test: the hook's slowdown was not flagged: running again ($attempt of 3)" >&2
+      if [ "$attempt" -eq 3 ]; then retake_baseline || break; fi
       DEM_BENCH_SLOWDOWN="$target:0.25" run "$log" --out "$dir/slowdown.json"
       rc=$?
     done
