@@ -48,9 +48,9 @@ struct PairContacts {
   std::vector<Real> work;           // work done on the contact since it formed [J]
   std::vector<Real> elastic;        // energy in its springs at the last evaluation [J]
   std::vector<Vec3> force;          // on i; j gets the negative [N]
-  // Torques are summed from these in the gather: on i -a_i lever + rolling_torque, on j
-  // -a_j lever - rolling_torque, lever arms a = r - overlap / 2 (one vector less per contact).
-  std::vector<Vec3> lever;           // n x force [N]
+  // Torques are summed from these in the gather: on i -a_i n x force + rolling_torque, on j
+  // -a_j n x force - rolling_torque, lever arms a = r - overlap / 2, the normal n recomputed there from
+  // the positions exactly as the force loop computed it (no torque or moment vector per contact).
   std::vector<Vec3> rolling_torque;  // parts.rolling: on i [N m]
   // Contacts found from candidate row a (a = the smaller slot of the pair) are the slots
   // row_start[a] .. row_start[a+1], ascending in key: history is inherited row by row.
@@ -79,7 +79,6 @@ struct PairContacts {
   static void for_each_array(const ContactParts& parts, F&& f) {
     f(&PairContacts::key), f(&PairContacts::i), f(&PairContacts::j);
     for_each_carried(parts, f);
-    f(&PairContacts::lever);
     if (parts.rolling) f(&PairContacts::rolling_torque);
   }
 };

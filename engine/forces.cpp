@@ -76,10 +76,7 @@ void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c
     c.work[k] += h * r.power;
     c.elastic[k] = r.elastic;
     c.force[k] = r.force;
-    if constexpr (Law::uses_rotation) {
-      c.lever[k] = n.cross(r.force);  // only the tangential part of the force has a moment
-      if constexpr (Law::rolling) c.rolling_torque[k] = r.rolling_torque;
-    }
+    if constexpr (Law::rolling) c.rolling_torque[k] = r.rolling_torque;
   });
 }
 
@@ -180,10 +177,14 @@ void gather_forces(State& s, const PairContacts& pairs, const WallContacts& wall
       else
         f -= pairs.force[k];
       if (rotation) {
-        // The torque pair_forces would have stored: -a lever, plus or minus the rolling torque. Without
-        // rolling it lacks only the "+ 0", which changes nothing in a sum that starts at +0.
+        // -a n x force, plus or minus the rolling torque; n exactly as pair_forces computed it, from the
+        // same positions (only the tangential part of the force has a moment). Without rolling it lacks
+        // only the "+ 0", which changes nothing in a sum that starts at +0.
+        const Vec3 d = s.position[pairs.i[k]] - s.position[pairs.j[k]];
+        const Real dist = d.norm();
+        const Vec3 n = dist > 0 ? Vec3(d / dist) : Vec3(Vec3::UnitX());
         const Real arm = s.radius[p] - 0.5 * pairs.overlap[k];
-        Vec3 torque = -arm * pairs.lever[k];
+        Vec3 torque = -arm * n.cross(pairs.force[k]);
         if (rolling) torque += is_i ? pairs.rolling_torque[k] : Vec3(-pairs.rolling_torque[k]);
         t += torque;
       }
