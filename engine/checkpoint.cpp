@@ -140,8 +140,7 @@ void pair_fields(Io& io, T& c) {
 }
 template <class Io, class T>  // T: WallContacts, const or not
 void wall_fields(Io& io, T& c) {
-  io(c.key), io(c.particle), io(c.wall), io(c.feature), io(c.history), io(c.overlap), io(c.work),
-      io(c.elastic), io(c.point), io(c.force), io(c.torque), io(c.rolling_torque);
+  WallContacts::for_each_array([&](auto field) { io(c.*field); });
 }
 template <class Io, class T>  // T: State, const or not
 void state_fields(Io& io, T& s) {

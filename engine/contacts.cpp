@@ -44,18 +44,11 @@ void PairContacts::index_rows(std::size_t particle_count) {
 }
 
 void WallContacts::resize(std::size_t n) {
-  resize_with_headroom(key, n);
-  resize_with_headroom(particle, n);
-  resize_with_headroom(wall, n);
-  resize_with_headroom(feature, n);
-  resize_with_headroom(history, n);
-  resize_with_headroom(overlap, n);
-  resize_with_headroom(work, n);
-  resize_with_headroom(elastic, n);
-  resize_with_headroom(point, n);
-  resize_with_headroom(force, n);
-  resize_with_headroom(torque, n);
-  resize_with_headroom(rolling_torque, n);
+  for_each_array([&](auto field) { resize_with_headroom(this->*field, n); });
+}
+
+void copy_wall(const WallContacts& a, std::size_t from, WallContacts& b, std::size_t to) {
+  WallContacts::for_each_array([&](auto field) { (b.*field)[to] = (a.*field)[from]; });
 }
 
 namespace {
@@ -91,11 +84,9 @@ Real end_pair_contact(const State& s, const broadphase::CandidatePairs& candidat
     const ParticleIndex b = candidates.partner[q];
     if (s.id[b] != partner) continue;
     const ParticleIndex i = s.id[a] == lo ? a : b, j = s.id[a] == lo ? b : a;  // the force is on i
-    const Vec3 d = s.position[i] - s.position[j];
-    const Real dist = d.norm();
-    const Vec3 n = dist > 0 ? Vec3(d / dist) : Vec3(Vec3::UnitX());
+    const PairNormal g = pair_normal(s, i, j);
     const Real k_n = materials.params(materials.pair_class(s.material[i], s.material[j])).k_n;
-    const Real release = release_work(c.force[k].dot(n), k_n, s.radius[i] + s.radius[j] - dist, c.overlap[k]);
+    const Real release = release_work(c.force[k].dot(g.n), k_n, s.radius[i] + s.radius[j] - g.distance, c.overlap[k]);
     c.work[k] += release;
     if (c.parts.books) c.books[k].normal_work += release;
     break;

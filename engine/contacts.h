@@ -102,7 +102,31 @@ struct WallContacts {
 
   std::size_t size() const { return key.size(); }
   void resize(std::size_t n);
+
+  /// Calls f(&WallContacts::field) for each per-contact array (resize, copies, checkpoints, memory).
+  template <class F>
+  static void for_each_array(F&& f) {
+    f(&WallContacts::key), f(&WallContacts::particle), f(&WallContacts::wall), f(&WallContacts::feature);
+    f(&WallContacts::history), f(&WallContacts::overlap), f(&WallContacts::work), f(&WallContacts::elastic);
+    f(&WallContacts::point), f(&WallContacts::force), f(&WallContacts::torque), f(&WallContacts::rolling_torque);
+  }
 };
+
+/// Copies every field of wall contact `from` of `a` into slot `to` of `b`.
+void copy_wall(const WallContacts& a, std::size_t from, WallContacts& b, std::size_t to);
+
+/// The unit normal from j to i and the centres' distance, as every pair loop computes them: the
+/// gather recomputes the force loop's normal from the same positions and relies on getting it bit
+/// for bit. Coincident centres have no normal; any fixed choice keeps runs deterministic.
+struct PairNormal {
+  Vec3 n;
+  Real distance;  // [m]
+};
+inline PairNormal pair_normal(const State& s, ParticleIndex i, ParticleIndex j) {
+  const Vec3 d = s.position[i] - s.position[j];
+  const Real dist = d.norm();
+  return {dist > 0 ? Vec3(d / dist) : Vec3(Vec3::UnitX()), dist};
+}
 
 /// Per-particle lists of contact slots for the gather, in ascending partner order:
 /// pair entries encode (contact << 1) | side, side 1 meaning the particle is j.

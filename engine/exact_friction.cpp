@@ -81,8 +81,8 @@ void settle(const TangentialConstants& c, const Limits& lim, Planar& y, std::uin
   if (c.friction) {
     const Vec2 xi = y.row(XI).transpose(), slip_velocity = slip(c, y);
     const Real spring = c.k_t * xi.norm(), u = slip_velocity.norm();
-    const Real force = Vec2(c.k_t * xi + c.c_t * slip_velocity).norm();
     if (!(mode & mode_sliding)) {
+      const Real force = Vec2(c.k_t * xi + c.c_t * slip_velocity).norm();  // the static force
       if (!(lim.stick > 0) || spring > tol * lim.stick || c.c_t * u > tol * lim.stick || force > tol * lim.stick)
         mode |= mode_sliding;
     } else if (u == 0 && lim.stick > 0 && spring <= lim.stick) {

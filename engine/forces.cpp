@@ -39,10 +39,7 @@ void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c
   const bool books = c.parts.books;
   parallel_for(c.size(), [&](std::size_t k) {
     const ParticleIndex i = c.i[k], j = c.j[k];
-    const Vec3 d = s.position[i] - s.position[j];
-    const Real dist = d.norm();
-    // Coincident centres have no normal; any fixed choice keeps runs deterministic.
-    const Vec3 n = dist > 0 ? Vec3(d / dist) : Vec3(Vec3::UnitX());
+    const auto [n, dist] = pair_normal(s, i, j);
     const Real overlap = s.radius[i] + s.radius[j] - dist;
     const Real arm_i = s.radius[i] - 0.5 * overlap, arm_j = s.radius[j] - 0.5 * overlap;  // as gather_forces
     Vec3 u = s.velocity[i] - s.velocity[j];
@@ -180,9 +177,7 @@ void gather_forces(State& s, const PairContacts& pairs, const WallContacts& wall
         // -a n x force, plus or minus the rolling torque; n exactly as pair_forces computed it, from the
         // same positions (only the tangential part of the force has a moment). Without rolling it lacks
         // only the "+ 0", which changes nothing in a sum that starts at +0.
-        const Vec3 d = s.position[pairs.i[k]] - s.position[pairs.j[k]];
-        const Real dist = d.norm();
-        const Vec3 n = dist > 0 ? Vec3(d / dist) : Vec3(Vec3::UnitX());
+        const Vec3 n = pair_normal(s, pairs.i[k], pairs.j[k]).n;
         const Real arm = s.radius[p] - 0.5 * pairs.overlap[k];
         Vec3 torque = -arm * n.cross(pairs.force[k]);
         if (rolling) torque += is_i ? pairs.rolling_torque[k] : Vec3(-pairs.rolling_torque[k]);

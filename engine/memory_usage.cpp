@@ -15,10 +15,9 @@ std::size_t heap_bytes(const PairContacts& c) {
 }
 
 std::size_t heap_bytes(const WallContacts& c) {
-  return heap_bytes(c.key) + heap_bytes(c.particle) + heap_bytes(c.wall) + heap_bytes(c.feature) +
-         heap_bytes(c.history) + heap_bytes(c.overlap) + heap_bytes(c.work) +
-         heap_bytes(c.elastic) + heap_bytes(c.point) + heap_bytes(c.force) + heap_bytes(c.torque) +
-         heap_bytes(c.rolling_torque);
+  std::size_t total = 0;
+  WallContacts::for_each_array([&](auto field) { total += heap_bytes(c.*field); });
+  return total;
 }
 
 std::size_t heap_bytes(const ContactAdjacency& a) {

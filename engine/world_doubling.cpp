@@ -491,13 +491,8 @@ void World::finish_round() {
           }
           slot = adjacency_.wall_start[member[q]];
           for (std::uint32_t c = is.adjacency.wall_start[q]; c < is.adjacency.wall_start[q + 1]; ++c, ++slot) {
-            fresh_walls.key[slot] = cw.key[c], fresh_walls.particle[slot] = member[q];
-            fresh_walls.wall[slot] = cw.wall[c], fresh_walls.feature[slot] = cw.feature[c];
-            fresh_walls.history[slot] = cw.history[c];
-            fresh_walls.overlap[slot] = cw.overlap[c], fresh_walls.work[slot] = cw.work[c];
-            fresh_walls.elastic[slot] = cw.elastic[c], fresh_walls.point[slot] = cw.point[c];
-            fresh_walls.force[slot] = cw.force[c], fresh_walls.torque[slot] = cw.torque[c];
-            fresh_walls.rolling_torque[slot] = cw.rolling_torque[c];
+            copy_wall(cw, c, fresh_walls, slot);
+            fresh_walls.particle[slot] = member[q];
           }
         }
       },

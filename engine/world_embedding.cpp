@@ -162,21 +162,6 @@ ParticleId World::add_particle(const ParticleConfig& p) {
   return state_.id[slot];
 }
 
-namespace {
-
-/// Moves contact `from` to slot `to` (to <= from) of a list, every field.
-void move_pair(PairContacts& c, std::size_t from, std::size_t to) { copy_pair(c, from, c, to); }
-
-void move_wall(WallContacts& c, std::size_t from, std::size_t to) {
-  c.key[to] = c.key[from], c.particle[to] = c.particle[from], c.wall[to] = c.wall[from];
-  c.feature[to] = c.feature[from], c.history[to] = c.history[from];
-  c.overlap[to] = c.overlap[from], c.work[to] = c.work[from], c.elastic[to] = c.elastic[from];
-  c.point[to] = c.point[from], c.force[to] = c.force[from], c.torque[to] = c.torque[from];
-  c.rolling_torque[to] = c.rolling_torque[from];
-}
-
-}  // namespace
-
 bool World::remove_particle(ParticleId id) {
   const std::optional<ParticleIndex> found = index_of(id);
   if (!found) return false;
@@ -203,7 +188,7 @@ bool World::remove_particle(ParticleId id) {
       if (spectra_) spectra_->record(CollisionSpectra::ball_ball, pairs_.history(k), pairs_.work[k], pairs_.elastic[k]);
       continue;
     }
-    move_pair(pairs_, k, kept);
+    copy_pair(pairs_, k, pairs_, kept);  // kept <= k: moves towards the front
     pairs_.i[kept] = renumber(pairs_.i[kept]);
     pairs_.j[kept] = renumber(pairs_.j[kept]);
     ++kept;
@@ -218,7 +203,7 @@ bool World::remove_particle(ParticleId id) {
         spectra_->record(CollisionSpectra::ball_wall, wall_contacts_.history[k], wall_contacts_.work[k], wall_contacts_.elastic[k]);
       continue;
     }
-    move_wall(wall_contacts_, k, kept);
+    copy_wall(wall_contacts_, k, wall_contacts_, kept);
     wall_contacts_.particle[kept] = renumber(wall_contacts_.particle[kept]);
     ++kept;
   }
