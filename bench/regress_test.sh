@@ -8,9 +8,10 @@
 #                                               grid_build_and_pairs/10000, 2 threads): exit code 1,
 #                                               that benchmark flagged as a regression and named
 #                                               (up to three runs until one flags it, the
-#                                               last against a new baseline)
+#                                               later ones each against a new baseline)
 # When other work holds the 2 cores, bench/regress does not judge 2-thread benchmarks (exit code 3):
-# this script then exits 77, which ctest reports as skipped.
+# this script then exits 77, which ctest reports as skipped; so does a slowdown case whose last run
+# left the hook "unresolved" (exit code 4: beyond the threshold but too scattered to be significant).
 set -uo pipefail
 mode=$1 build=$2 dir=$3 target=${4:-grid_build_and_pairs/10000}
 regress="$(dirname "$0")/regress"
@@ -23,9 +24,9 @@ run() {  # run LOG ARGS...: bench/regress --quick against $baseline_file, output
   return "${PIPESTATUS[0]}"
 }
 # The baseline run itself can be the outlier (two fresh runs of one build measured 30% slower than
-# it, both significant): a last try takes a new baseline of the same build first.
+# it, both significant): a later try takes a new baseline of the same build first.
 retake_baseline() {
-  echo "regress_test: the baseline run may be the outlier: taking it again for a last try" >&2
+  echo "regress_test: the baseline run may be the outlier: taking it again for the next try" >&2
   baseline_file="$dir/baseline_again.json"
   env -u DEM_BENCH_SLOWDOWN "$regress" --quick --build "$build" --baseline "$baseline_file" --update-baseline \
     --out "$dir/baseline_again_run.json" > "$dir/baseline_again.log" 2>&1 || return 1
@@ -57,7 +58,8 @@ case $mode in
       rc=$?
       [ "$rc" -eq 3 ] && busy
     fi
-    if [ "$rc" -ne 0 ]; then
+    # 4: a change beyond the threshold left unresolved by the noise, not flagged as a regression.
+    if [ "$rc" -ne 0 ] && [ "$rc" -ne 4 ]; then
       echo "regress_test: two fresh runs of one build must pass; bench/regress exited with $rc" >&2
       exit 1
     fi
@@ -67,16 +69,23 @@ case $mode in
     DEM_BENCH_SLOWDOWN="$target:0.25" run "$log" --out "$dir/slowdown.json"
     rc=$?
     # The same noise the other way: a slow baseline run can hide a quarter (CI once measured the hook
-    # as +14.6%). A real quarter shows in most runs, so up to two more (the first verdict that
-    # flags it counts); noise hides it from three runs in a row only on cores shared with other work.
+    # as -2% against a baseline taken while the cores were busy). A real quarter shows in most runs,
+    # so up to two more, each against a baseline taken just before it (the first verdict that flags
+    # it counts); noise hides it from three runs in a row only on cores shared with other work.
     for attempt in 2 3; do
-      [ "$rc" -eq 0 ] || break
+      [ "$rc" -eq 0 ] || [ "$rc" -eq 4 ] || break
       echo "regress_test: the hook's slowdown was not flagged: running again ($attempt of 3)" >&2
-      if [ "$attempt" -eq 3 ]; then retake_baseline || break; fi
+      retake_baseline || break
       DEM_BENCH_SLOWDOWN="$target:0.25" run "$log" --out "$dir/slowdown.json"
       rc=$?
     done
     if [ "$rc" -eq 3 ] || { [ "$rc" -ne 1 ] && grep -q "^[^ ]*/$target .*not judged" "$log"; }; then busy; fi
+    if [ "$rc" -eq 4 ] && grep -q "^[^ ]*/$target .*unresolved" "$log"; then
+      # The runner saw the quarter (beyond the threshold) but the scatter left it not significant:
+      # it said so instead of "same", which is all a U test on such noise allows.
+      echo "regress_test: skipped: three runs too noisy to resolve the hook's quarter (bench/regress exit code 4)" >&2
+      exit 77
+    fi
     if [ "$rc" -ne 1 ]; then
       echo "regress_test: a 25% slowdown of $target must fail with exit code 1; got $rc" >&2
       exit 1
