@@ -228,13 +228,21 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
 }
 
 Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTable& materials, WallContacts& contacts,
-                          ContactWorkspace& work, std::vector<std::uint32_t>& wall_start) {
+                          ContactWorkspace& work, std::vector<std::uint32_t>& wall_start, const WallLists* lists) {
   const std::size_t n = s.size();
+  // Calls visit(w) for each wall particle p is tested against, in ascending order.
+  const auto for_each_wall = [&](std::size_t p, auto&& visit) {
+    if (s.inv_mass[p] == 0) return;
+    if (lists == nullptr) {
+      for (std::size_t w = 0; w < walls.count(); ++w) visit(w);
+      return;
+    }
+    for (std::uint32_t k = lists->row_start(p); k < lists->row_start(p + 1); ++k) visit(lists->wall(k));
+  };
   work.count.resize(n);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t c = 0;
-    if (s.inv_mass[p] > 0)
-      for (std::size_t w = 0; w < walls.count(); ++w) c += walls.touching_count(w, s.position[p], s.radius[p]);
+    for_each_wall(p, [&](std::size_t w) { c += walls.touching_count(w, s.position[p], s.radius[p]); });
     work.count[p] = c;
   });
   exclusive_scan(work.count, wall_start);
@@ -242,10 +250,9 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
   fresh.resize(wall_start[n]);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t slot = wall_start[p];
-    for (std::size_t w = 0; w < walls.count(); ++w) {
+    for_each_wall(p, [&](std::size_t w) {
       // The features go straight into this particle's slots, whose number the count above fixed.
-      const std::uint32_t touched =
-          s.inv_mass[p] > 0 ? walls.touching_features(w, s.position[p], s.radius[p], fresh.feature.data() + slot) : 0;
+      const std::uint32_t touched = walls.touching_features(w, s.position[p], s.radius[p], fresh.feature.data() + slot);
       for (std::uint32_t q = 0; q < touched; ++q) {
         const std::uint32_t f = fresh.feature[slot];
         fresh.key[slot] = wall_key(s.id[p], static_cast<std::uint32_t>(w), f);
@@ -267,7 +274,7 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
         }
         ++slot;
       }
-    }
+    });
   });
   DEM_VALIDATE(std::is_sorted(fresh.key.begin(), fresh.key.end()));
   parallel_for(contacts.size(), [&](std::size_t k) {

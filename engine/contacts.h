@@ -15,6 +15,7 @@
 #include "engine/contact_law.h"
 #include "engine/materials.h"
 #include "engine/state.h"
+#include "engine/wall_lists.h"
 #include "engine/walls.h"
 
 namespace dem {
@@ -163,9 +164,11 @@ Real update_pair_contacts(const State& state, const broadphase::CandidatePairs& 
                           const EndedPairsHook& on_ended = {});
 
 /// Replaces `contacts` by the current particle-wall overlaps, inheriting history by key. Returns the
-/// energy dissipated by the contacts that ended [J].
+/// energy dissipated by the contacts that ended [J]. With `lists` (valid for this state, wall_lists.h)
+/// each particle is tested against its listed walls only; without, against every wall: the same list.
 Real update_wall_contacts(const State& state, const Walls& walls, const MaterialTable& materials,
-                          WallContacts& contacts, ContactWorkspace& work, std::vector<std::uint32_t>& wall_start);
+                          WallContacts& contacts, ContactWorkspace& work, std::vector<std::uint32_t>& wall_start,
+                          const WallLists* lists = nullptr);
 
 /// Energy dissipated so far by the live contacts of a list: sum of work - elastic [J].
 Real live_dissipation(const std::vector<Real>& work, const std::vector<Real>& elastic);

@@ -712,6 +712,7 @@ void read_run_and_output(TableReader& top, Scene& scene) {
     TableReader r(*t, "broadphase", top.file());
     if (r.has("skin")) scene.world.broadphase.skin = r.non_negative("skin", 0);
     scene.world.broadphase.use_kd_tree = r.choice("kind", {"grid", "kd_tree"}, 0) == 1;
+    scene.world.broadphase.wall_lists = r.boolean("wall_lists", true);
     r.finish();
   }
 }

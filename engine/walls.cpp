@@ -75,6 +75,13 @@ Walls::PrismShape Walls::make_prism(const WallConfig& w) {
         fail("the profile must be a convex polygon, its corners in order around it (it crosses itself)");
   for (const Vec2& c : shape.corner) shape.middle += c / static_cast<Real>(n);
   for (const Vec2& c : shape.corner) shape.bound = std::max(shape.bound, (c - shape.middle).norm());
+  // The farthest point of a convex solid from a line (the rotation axis) is one of its corners.
+  const Vec3 spin_axis = w.angular_velocity.norm() > 0 ? Vec3(w.angular_velocity.normalized()) : Vec3::Zero();
+  for (const Vec2& c : shape.corner)
+    for (const Real end : {-shape.half_length, shape.half_length}) {
+      const Vec3 arm = w.point + c.x() * shape.u + c.y() * shape.v + end * w.axis - w.rotation_center;
+      shape.reach = std::max(shape.reach, (arm - arm.dot(spin_axis) * spin_axis).norm());
+    }
   return shape;
 }
 
@@ -92,6 +99,7 @@ const std::vector<MeshContact>& Walls::mesh_contacts(std::size_t w, const Vec3& 
 }
 
 void Walls::set_time(Real t) {
+  time_ = t;
   for (std::size_t w = 0; w < config_.size(); ++w) {
     const WallConfig& c = config_[w];
     Pose& p = pose_[w];
@@ -227,6 +235,28 @@ bool Walls::touch_prism(std::size_t w, const Vec3& x, Real r, WallTouch& out) co
                              : Vec3(shape.normal[outmost_edge].x() * shape.u + shape.normal[outmost_edge].y() * shape.v);
   out.normal = p.rotation * normal0;
   return true;
+}
+
+bool Walls::may_touch(std::size_t w, const Vec3& x, Real r, Real margin) const {
+  if (!filtered(w)) return true;
+  // touch_prism's first test, widened by the margin: a sphere that touches the prism is within
+  // `bound` of its middle across the axis and within half its length of its middle along it.
+  const PrismShape& shape = prism_[w];
+  const Pose& p = pose_[w];
+  const Vec3 rel = p.rotation.transpose() * (x - p.point);
+  const Vec2 q(rel.dot(shape.u), rel.dot(shape.v));
+  const Real reach = r + margin;
+  return (q - shape.middle).squaredNorm() <= (reach + shape.bound) * (reach + shape.bound) &&
+         std::abs(rel.dot(config_[w].axis)) <= shape.half_length + reach;
+}
+
+Real Walls::max_travel(std::size_t w, Real t0, Real t1) const {
+  if (!filtered(w)) return 0;
+  // A point at distance rho from the rotation axis moves by at most rho times the angle turned;
+  // the centre by the translation. Both are the configured rates times the ramp's distance factor.
+  const WallConfig& c = config_[w];
+  const Real distance = ramp_distance(t1, c.ramp_time) - ramp_distance(t0, c.ramp_time);
+  return (c.velocity.norm() + c.angular_velocity.norm() * prism_[w].reach) * std::abs(distance);
 }
 
 std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features) const {

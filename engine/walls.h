@@ -53,6 +53,8 @@ class Walls {
 
   /// Moves every wall to its pose at time t [s].
   void set_time(Real t);
+  /// The time of the current poses [s].
+  Real time() const { return time_; }
 
   /// Contact of a sphere (centre x, radius r) with feature f of wall w; false if not touching.
   bool touch(std::size_t w, std::uint32_t f, const Vec3& x, Real r, WallTouch& out) const;
@@ -63,6 +65,16 @@ class Walls {
   std::uint32_t touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features) const;
   /// How many features touching_features would write.
   std::uint32_t touching_count(std::size_t w, const Vec3& x, Real r) const;
+  /// Whether the wall lists of a wall broadphase (wall_lists.h) filter wall w: prisms (lifter bars,
+  /// many and small, so most particles are far from most of them); every other kind is tested always.
+  bool filtered(std::size_t w) const { return config_[w].kind == WallKind::prism; }
+  /// For a filtered wall: false only when the sphere (centre x, radius r) is more than `margin` [m]
+  /// clear of the wall's bound now, so no motion of the two that adds up to at most `margin` brings
+  /// them into touch. True for every other kind.
+  bool may_touch(std::size_t w, const Vec3& x, Real r, Real margin) const;
+  /// Bound on how far any point of a filtered wall moves from time t0 to t1 >= t0 [m]: its
+  /// translation plus its rotation's arc at the corner farthest from the axis (0 for other kinds).
+  Real max_travel(std::size_t w, Real t0, Real t1) const;
   /// The mesh of a mesh wall (its t = 0 geometry relative to `point`), else null.
   const TriangleMesh* mesh(std::size_t w) const { return config_[w].mesh.get(); }
 
@@ -93,6 +105,7 @@ class Walls {
     Real half_length = 0;
     Eigen::Vector2d middle = Eigen::Vector2d::Zero();  // mean of the corners
     Real bound = 0;  // largest distance of a corner from `middle`: beyond it plus r, no contact [m]
+    Real reach = 0;  // largest distance of a corner from the wall's rotation axis [m]
   };
   static PrismShape make_prism(const WallConfig& w);
   bool touch_prism(std::size_t w, const Vec3& x, Real r, WallTouch& out) const;
@@ -104,6 +117,7 @@ class Walls {
   std::vector<PrismShape> prism_;  // per wall; empty shape for other kinds
   std::vector<std::uint16_t> material_;
   std::vector<Pose> pose_;
+  Real time_ = 0;
 };
 
 }  // namespace dem

@@ -51,6 +51,8 @@ World::World(const WorldConfig& config)
     skin_ = 0.1 * r_min;
   }
   candidate_skin_ = skin_;
+  for (std::size_t w = 0; w < walls_.count(); ++w)
+    use_wall_lists_ = use_wall_lists_ || (config_.broadphase.wall_lists && walls_.filtered(w));
   const bool book_spectra = config_.collision_spectra && config_.integrator.control == Control::fixed &&
                             config_.integrator.method == Method::verlet;
   pairs_.parts = {materials_.any_friction(), materials_.any_rolling(), book_spectra};
@@ -99,8 +101,10 @@ void World::evaluate_forces(Real h, bool force_rebuild) {
   };
   ended_dissipation_ += update_pair_contacts(state_, candidates_, materials_, pairs_, workspace_, spectra_ ? book_ended : EndedPairsHook{});
   build_pair_adjacency(n, pairs_, adjacency_);
-  ended_dissipation_ +=
-      update_wall_contacts(state_, walls_, materials_, wall_contacts_, workspace_, adjacency_.wall_start);
+  // The lists give the same contacts as testing every wall, so when they are rebuilt changes nothing.
+  if (use_wall_lists_ && !wall_lists_.valid(state_, walls_)) wall_lists_.build(state_, walls_, skin_);
+  ended_dissipation_ += update_wall_contacts(state_, walls_, materials_, wall_contacts_, workspace_,
+                                             adjacency_.wall_start, use_wall_lists_ ? &wall_lists_ : nullptr);
   if (spectra_) spectra_->record_ended(workspace_.walls, wall_contacts_);
   kernels_.pair_forces(state_, materials_, pairs_, h);
   kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, h);

@@ -251,6 +251,8 @@ class World {
   broadphase::KdTreeBroadphase kd_tree_;
   broadphase::SkinTracker skin_tracker_;
   broadphase::CandidatePairs candidates_;
+  WallLists wall_lists_;         // when use_wall_lists_
+  bool use_wall_lists_ = false;  // config and any filtered wall (Walls::filtered)
 
   PairContacts pairs_;
   WallContacts wall_contacts_;

@@ -218,6 +218,7 @@ bool World::remove_particle(ParticleId id) {
 
 void World::refresh_after_population_change() {
   const std::size_t n = state_.size();
+  wall_lists_.clear();
   pairs_.index_rows(n);
   build_pair_adjacency(n, pairs_, adjacency_);
   std::vector<std::uint32_t>& wall_start = adjacency_.wall_start;  // wall contacts are sorted by particle

@@ -50,6 +50,7 @@ std::vector<MemoryPart> World::memory_breakdown() const {
   parts.push_back({"candidate pairs", heap_bytes(candidates_)});
   parts.push_back({"pair contacts", heap_bytes(pairs_)});
   parts.push_back({"wall contacts", heap_bytes(wall_contacts_)});
+  parts.push_back({"wall lists", wall_lists_.memory_bytes()});
   parts.push_back({"contact workspace", heap_bytes(workspace_)});
   parts.push_back({"adjacency", heap_bytes(adjacency_)});
   parts.push_back({"exact workspace", exact_bytes(exact_work_)});

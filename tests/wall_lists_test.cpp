@@ -1,0 +1,145 @@
+// The wall broadphase (wall_lists.h): while the lists report themselves valid, no wall left out of a
+// particle's list touches it, for walls that turn about an off-axis centre, translate and ramp up;
+// and a mill runs to the same state with the lists as without them.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "engine/scene_loader.h"
+#include "engine/wall_lists.h"
+#include "engine/world.h"
+#include "tests/mill_scenes.h"
+
+namespace dem {
+namespace {
+
+MaterialTable one_material() { return MaterialTable({MaterialConfig{}}, {ContactConfig{}}, Separation::force_zero); }
+
+/// A bar of rectangular cross-section 2 a x 2 b about `centre`, axis z, of length 2 c.
+WallConfig bar(const Vec3& centre, Real a, Real b, Real c) {
+  WallConfig w;
+  w.kind = WallKind::prism;
+  w.point = centre;
+  w.axis = Vec3::UnitZ();
+  w.length = 2 * c;
+  for (const auto& [x, y] : {std::pair{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}) w.profile.push_back(centre + Vec3(x * a, y * b, 0));
+  w.use_rotation_center = true;  // the origin, as a lifter turns about the mill's axis
+  return w;
+}
+
+bool listed(const WallLists& lists, std::size_t p, std::size_t w) {
+  for (std::uint32_t k = lists.row_start(p); k < lists.row_start(p + 1); ++k)
+    if (lists.wall(k) == w) return true;
+  return false;
+}
+
+TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
+  // Two lifter-like bars turning with a ramp about the origin (one of them also translating), a
+  // plane (never filtered) below.
+  std::vector<WallConfig> config;
+  config.push_back(bar(Vec3(0.1, 0, 0), 0.01, 0.006, 0.05));
+  config.back().angular_velocity = Vec3(0, 0, 6);
+  config.back().ramp_time = 0.2;
+  config.push_back(bar(Vec3(-0.08, 0.03, 0), 0.008, 0.01, 0.05));
+  config.back().angular_velocity = Vec3(0, 0, -4);
+  config.back().velocity = Vec3(0.3, 0, 0);
+  WallConfig floor;
+  floor.kind = WallKind::plane;
+  floor.point = Vec3(0, -0.12, 0);
+  floor.normal = Vec3::UnitY();
+  config.push_back(floor);
+  Walls walls(config, one_material());
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<Real> u(-1, 1);
+  State s;
+  const int n = 2000;
+  for (int p = 0; p < n; ++p)
+    s.add(Vec3(0.13 * u(rng), 0.13 * u(rng), 0.02 * u(rng)), Vec3::Zero(), Vec3::Zero(), 0.004 + 0.002 * u(rng), 1, 1, 0);
+  s.add(Vec3(0.1, 0.02, 0), Vec3::Zero(), Vec3::Zero(), 0.004, 0, 0, 0);  // immovable: no list
+  const Real margin = 0.003;
+  const State start = s;
+  int valid_trials = 0, touches_checked = 0, filtered_out = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const Real t0 = 0.05 + 0.5 * std::abs(u(rng));
+    walls.set_time(t0);
+    s = start;
+    WallLists lists;
+    lists.build(s, walls, margin);
+    EXPECT_EQ(lists.row_start(s.size() - 1), lists.row_start(s.size())) << "an immovable particle lists no wall";
+    for (std::size_t p = 0; p + 1 < s.size(); ++p) {
+      EXPECT_TRUE(listed(lists, p, 2)) << "the plane is never filtered";
+      filtered_out += !listed(lists, p, 0) + !listed(lists, p, 1);
+    }
+    // Move walls and particles by random amounts, some beyond what the lists allow.
+    walls.set_time(t0 + 6e-3 * std::abs(u(rng)));  // bar travel up to about 4 mm
+    const Real reach = margin * 0.6 * std::abs(u(rng));
+    for (std::size_t p = 0; p + 1 < s.size(); ++p) {
+      const Vec3 d(u(rng), u(rng), u(rng));
+      s.position[p] += reach * std::abs(u(rng)) * d.normalized();
+    }
+    if (!lists.valid(s, walls)) continue;
+    ++valid_trials;
+    for (std::size_t p = 0; p + 1 < s.size(); ++p)
+      for (std::size_t w = 0; w < walls.count(); ++w) {
+        if (walls.touching_count(w, s.position[p], s.radius[p]) == 0) continue;
+        ++touches_checked;
+        EXPECT_TRUE(listed(lists, p, w)) << "trial " << trial << ": particle " << p << " touches wall " << w
+                                         << " but was left out of its list";
+      }
+  }
+  EXPECT_GT(valid_trials, 40);
+  EXPECT_LT(valid_trials, 190) << "some trials move beyond the margin: valid() must say so";
+  EXPECT_GT(touches_checked, 500);
+  EXPECT_GT(filtered_out, 200 * n) << "most particles are far from most bars: the lists leave those out";
+}
+
+TEST(WallLists, ValidityFollowsTheMarginLessTheWallsTravel) {
+  std::vector<WallConfig> config{bar(Vec3(0.1, 0, 0), 0.01, 0.006, 0.05)};
+  config[0].angular_velocity = Vec3(0, 0, 2);  // no ramp: the far corner moves at 2 * reach m/s
+  Walls walls(config, one_material());
+  State s;
+  s.add(Vec3(0, 0.05, 0), Vec3::Zero(), Vec3::Zero(), 0.004, 1, 1, 0);
+  WallLists lists;
+  lists.build(s, walls, 1e-3);
+  EXPECT_TRUE(lists.valid(s, walls));
+  s.position[0].x() += 0.999e-3;
+  EXPECT_TRUE(lists.valid(s, walls));
+  s.position[0].x() += 2e-6;
+  EXPECT_FALSE(lists.valid(s, walls)) << "moved beyond the margin";
+  s.position[0].x() -= 0.5e-3;  // about 0.5 mm moved: room for 0.5 mm of wall travel
+  const Real reach = std::hypot(0.11, 0.006);  // the far corner from the rotation axis (z, through 0)
+  walls.set_time(0.45e-3 / (2 * reach));
+  EXPECT_TRUE(lists.valid(s, walls));
+  walls.set_time(0.55e-3 / (2 * reach));
+  EXPECT_FALSE(lists.valid(s, walls)) << "the walls' travel counts against the margin";
+  s.add(Vec3(0, 0.06, 0), Vec3::Zero(), Vec3::Zero(), 0.004, 1, 1, 0);
+  EXPECT_FALSE(lists.valid(s, walls)) << "another particle count";
+}
+
+TEST(WallLists, AMillRunsToTheSameStateWithAndWithoutThem) {
+  const std::vector<std::vector<std::string>> runs = {
+      {}, {"integrator.method=\"exact\"", "contacts[0].sliding_friction=0.0", "contacts[0].rolling_friction=0.0"}};
+  for (const std::vector<std::string>& overrides : runs) {
+    SCOPED_TRACE(overrides.empty() ? "verlet" : "exact");
+    std::uint64_t hash[2];
+    std::size_t wall_bytes[2];
+    for (int with : {0, 1}) {
+      std::vector<std::string> o = overrides;
+      o.push_back(with ? "broadphase.wall_lists=true" : "broadphase.wall_lists=false");
+      const Scene scene = load_scene_text(test::mill_scene(8, 0.75, "count = 60"), "mill.toml", ".", o);
+      World world(scene.world);
+      ASSERT_EQ(world.run_until(0.35), StepStatus::ok);
+      hash[with] = world.state_hash();
+      wall_bytes[with] = 0;
+      for (const MemoryPart& part : world.memory_breakdown())
+        if (part.name == std::string("wall lists")) wall_bytes[with] = part.bytes;
+    }
+    EXPECT_EQ(hash[0], hash[1]) << "the lists must only skip tests that could not succeed";
+    EXPECT_EQ(wall_bytes[0], 0u);
+    EXPECT_GT(wall_bytes[1], 0u) << "the run with lists must have used them";
+  }
+}
+
+}  // namespace
+}  // namespace dem
