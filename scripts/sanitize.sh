@@ -60,9 +60,9 @@ compare_backends() {
     fi
     rm -rf "$out/tbb" "$out/std"
   done <<'RUNS'
-mill_2d --until 0.1
-mill_2d --until 0.1 --set integrator.control=doubling
-dense_bed --until 5e-4
+mill_2d --until 0.04
+mill_2d --until 0.04 --set integrator.control=doubling
+dense_bed --until 2e-4
 RUNS
   rm -rf "$out"
   return $status
