@@ -21,7 +21,11 @@ Worst worst_of(std::size_t n, const Ratio& ratio) {
   return exact_reduce(
       n, default_grain, Worst{},
       [&](std::size_t begin, std::size_t end, Worst acc) {
-        for (std::size_t k = begin; k != end; ++k) acc = Worst::worse(acc, ratio(k));
+        for (std::size_t k = begin; k != end; ++k) {
+          const Worst w = ratio(k);
+          // Most entries are plainly smaller: only a larger, equal (ties go by id) or NaN one is merged.
+          if (!(w.value < acc.value)) acc = Worst::worse(acc, w);
+        }
         return acc;
       },
       &Worst::worse);

@@ -38,8 +38,9 @@ bool WallLists::valid(const State& s, const Walls& walls) const {
   Real travel = 0;
   for (std::size_t w = 0; w < walls.count(); ++w) travel = std::max(travel, walls.max_travel(w, time_, walls.time()));
   const Real room = margin_ - travel;
-  // A NaN displacement fails the test too.
-  return !parallel_any(s.size(), [&](std::size_t p) { return !((s.position[p] - reference_[p]).norm() <= room); });
+  if (!(room >= 0)) return false;
+  // Squared, so no root per particle; a NaN displacement fails the test too.
+  return !parallel_any(s.size(), [&](std::size_t p) { return !((s.position[p] - reference_[p]).squaredNorm() <= room * room); });
 }
 
 std::size_t WallLists::memory_bytes() const {

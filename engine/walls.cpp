@@ -237,26 +237,56 @@ bool Walls::touch_prism(std::size_t w, const Vec3& x, Real r, WallTouch& out) co
   return true;
 }
 
+bool Walls::filtered(std::size_t w) const {
+  const WallConfig& c = config_[w];
+  if (c.kind == WallKind::prism) return true;
+  return c.kind != WallKind::mesh && c.angular_velocity.norm() == 0;
+}
+
 bool Walls::may_touch(std::size_t w, const Vec3& x, Real r, Real margin) const {
   if (!filtered(w)) return true;
+  const WallConfig& c = config_[w];
+  const Pose& pose = pose_[w];
+  const Real reach = r + margin;
+  // touch()'s tests at radius r + margin (a sphere that touches at r touches at any larger radius):
+  // within the margin of touching now.
+  switch (c.kind) {
+    case WallKind::plane: {
+      const Real d = (x - pose.point).dot(pose.direction);
+      return d < reach && d > -reach;
+    }
+    case WallKind::box: {
+      const Vec3 local = pose.rotation.transpose() * (x - pose.point);
+      const Vec3& h = c.half_extents;
+      if (c.inside) return ((h - local.cwiseAbs()).array() < reach).any();
+      return (local - local.cwiseMax(-h).cwiseMin(h)).norm() < reach;
+    }
+    case WallKind::cylinder: {
+      const Vec3 rel = x - pose.point;
+      const Real along = rel.dot(pose.direction);
+      return std::abs(along) <= 0.5 * c.length + margin && (rel - along * pose.direction).norm() > c.radius - reach;
+    }
+    default:
+      break;
+  }
   // touch_prism's first test, widened by the margin: a sphere that touches the prism is within
   // `bound` of its middle across the axis and within half its length of its middle along it.
   const PrismShape& shape = prism_[w];
-  const Pose& p = pose_[w];
-  const Vec3 rel = p.rotation.transpose() * (x - p.point);
+  const Vec3 rel = pose.rotation.transpose() * (x - pose.point);
   const Vec2 q(rel.dot(shape.u), rel.dot(shape.v));
-  const Real reach = r + margin;
   return (q - shape.middle).squaredNorm() <= (reach + shape.bound) * (reach + shape.bound) &&
-         std::abs(rel.dot(config_[w].axis)) <= shape.half_length + reach;
+         std::abs(rel.dot(c.axis)) <= shape.half_length + reach;
 }
 
 Real Walls::max_travel(std::size_t w, Real t0, Real t1) const {
   if (!filtered(w)) return 0;
+  // A filtered wall other than a prism does not turn: it travels with its centre.
   // A point at distance rho from the rotation axis moves by at most rho times the angle turned;
   // the centre by the translation. Both are the configured rates times the ramp's distance factor.
   const WallConfig& c = config_[w];
   const Real distance = ramp_distance(t1, c.ramp_time) - ramp_distance(t0, c.ramp_time);
-  return (c.velocity.norm() + c.angular_velocity.norm() * prism_[w].reach) * std::abs(distance);
+  const Real arm = c.kind == WallKind::prism ? prism_[w].reach : 0;
+  return (c.velocity.norm() + c.angular_velocity.norm() * arm) * std::abs(distance);
 }
 
 std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features) const {

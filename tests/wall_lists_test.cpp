@@ -1,8 +1,10 @@
 // The wall broadphase (wall_lists.h): while the lists report themselves valid, no wall left out of a
-// particle's list touches it, for walls that turn about an off-axis centre, translate and ramp up;
-// and a mill runs to the same state with the lists as without them.
+// particle's list touches it, for prisms that turn about an off-axis centre, translate and ramp up,
+// and planes, boxes and cylinders at rest or translating; a mill and a box of particles run to the
+// same state with the lists as without them.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -10,6 +12,7 @@
 #include "engine/wall_lists.h"
 #include "engine/world.h"
 #include "tests/mill_scenes.h"
+#include "tests/test_scenes.h"
 
 namespace dem {
 namespace {
@@ -36,7 +39,8 @@ bool listed(const WallLists& lists, std::size_t p, std::size_t w) {
 
 TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
   // Two lifter-like bars turning with a ramp about the origin (one of them also translating), a
-  // plane (never filtered) below.
+  // plane below, a container box, a translating solid block, a translating cylinder and a turning
+  // one (never filtered).
   std::vector<WallConfig> config;
   config.push_back(bar(Vec3(0.1, 0, 0), 0.01, 0.006, 0.05));
   config.back().angular_velocity = Vec3(0, 0, 6);
@@ -49,7 +53,33 @@ TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
   floor.point = Vec3(0, -0.12, 0);
   floor.normal = Vec3::UnitY();
   config.push_back(floor);
+  WallConfig container;
+  container.kind = WallKind::box;
+  container.half_extents = Vec3(0.12, 0.12, 0.03);
+  config.push_back(container);
+  WallConfig block;
+  block.kind = WallKind::box;
+  block.inside = false;
+  block.point = Vec3(0.05, -0.06, 0);
+  block.half_extents = Vec3(0.02, 0.01, 0.05);
+  block.velocity = Vec3(0, 0.2, 0);
+  config.push_back(block);
+  WallConfig drum;
+  drum.kind = WallKind::cylinder;
+  drum.axis = Vec3::UnitZ();
+  drum.radius = 0.11;
+  drum.length = 0.1;
+  drum.velocity = Vec3(0.1, 0, 0);
+  config.push_back(drum);
+  WallConfig shell = drum;
+  shell.velocity = Vec3::Zero();
+  shell.radius = 0.12;
+  shell.angular_velocity = Vec3(0, 0, 3);
+  config.push_back(shell);
+  const std::size_t turning = config.size() - 1;
   Walls walls(config, one_material());
+  ASSERT_TRUE(walls.filtered(0) && walls.filtered(2) && walls.filtered(3) && walls.filtered(5));
+  ASSERT_FALSE(walls.filtered(turning));
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<Real> u(-1, 1);
   State s;
@@ -68,7 +98,7 @@ TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
     lists.build(s, walls, margin);
     EXPECT_EQ(lists.row_start(s.size() - 1), lists.row_start(s.size())) << "an immovable particle lists no wall";
     for (std::size_t p = 0; p + 1 < s.size(); ++p) {
-      EXPECT_TRUE(listed(lists, p, 2)) << "the plane is never filtered";
+      EXPECT_TRUE(listed(lists, p, turning)) << "a turning cylinder is never filtered";
       filtered_out += !listed(lists, p, 0) + !listed(lists, p, 1);
     }
     // Move walls and particles by random amounts, some beyond what the lists allow.
@@ -90,7 +120,7 @@ TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
   }
   EXPECT_GT(valid_trials, 40);
   EXPECT_LT(valid_trials, 190) << "some trials move beyond the margin: valid() must say so";
-  EXPECT_GT(touches_checked, 500);
+  EXPECT_GT(touches_checked, 2000);
   EXPECT_GT(filtered_out, 200 * n) << "most particles are far from most bars: the lists leave those out";
 }
 
@@ -138,6 +168,30 @@ TEST(WallLists, AMillRunsToTheSameStateWithAndWithoutThem) {
     EXPECT_EQ(hash[0], hash[1]) << "the lists must only skip tests that could not succeed";
     EXPECT_EQ(wall_bytes[0], 0u);
     EXPECT_GT(wall_bytes[1], 0u) << "the run with lists must have used them";
+  }
+}
+
+TEST(WallLists, ParticlesFallingInABoxRunToTheSameStateWithAndWithoutThem) {
+  for (const Method method : {Method::verlet, Method::exact}) {
+    SCOPED_TRACE(method == Method::verlet ? "verlet" : "exact");
+    std::uint64_t hash[2];
+    std::size_t wall_contacts[2];
+    for (const bool with : {false, true}) {
+      WorldConfig c = test::falling_box_scene(6, 6, 6, 5);
+      c.integrator.method = method;
+      if (method == Method::exact) c.contacts[0].sliding_friction = c.contacts[0].rolling_friction = 0;
+      c.broadphase.wall_lists = with;
+      World world(c);
+      std::size_t most = 0;
+      for (int i = 0; i < 1500; ++i) {
+        ASSERT_EQ(world.advance_sync_interval(), StepStatus::ok);
+        most = std::max(most, world.wall_contacts().size());
+      }
+      hash[with] = world.state_hash();
+      wall_contacts[with] = most;
+    }
+    EXPECT_EQ(hash[0], hash[1]) << "the lists must only skip tests that could not succeed";
+    EXPECT_GT(wall_contacts[1], 10u) << "the particles must have reached the box's faces";
   }
 }
 
