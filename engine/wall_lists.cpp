@@ -1,6 +1,7 @@
 #include "engine/wall_lists.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "engine/parallel.h"
 #include "engine/types.h"
@@ -14,20 +15,29 @@ void WallLists::build(const State& s, const Walls& walls, Real margin) {
   const auto listed = [&](std::size_t p, std::size_t w) {
     return s.inv_mass[p] > 0 && walls.may_touch(w, s.position[p], s.radius[p], margin);
   };
-  count_.resize(n);
+  // Counts go to start_[p + 1], then an inclusive scan in place turns them into row starts.
+  start_.assign(n + 1, 0);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t c = 0;
     for (std::size_t w = 0; w < walls.count(); ++w) c += listed(p, w) ? 1 : 0;
-    count_[p] = c;
+    start_[p + 1] = c;
   });
-  exclusive_scan(count_, start_);
+  for (std::size_t p = 0; p < n; ++p) start_[p + 1] += start_[p];
   wall_.resize(start_[n]);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t k = start_[p];
     for (std::size_t w = 0; w < walls.count(); ++w)
       if (listed(p, w)) wall_[k++] = static_cast<std::uint16_t>(w);
   });
-  reference_.assign(s.position.begin(), s.position.end());
+  reference_.resize(n);
+  Real largest = 0;  // coordinate [m]
+  for (std::size_t p = 0; p < n; ++p) {
+    reference_[p] = s.position[p].cast<float>();
+    largest = std::max(largest, s.position[p].cwiseAbs().maxCoeff());
+  }
+  // Each coordinate of the float copy is within half a float ulp of the true one, and so is the
+  // displacement from it; taken off the margin so the test stays conservative.
+  rounding_ = std::sqrt(3.0) * 0x1.0p-24 * largest;
   time_ = walls.time();
   margin_ = margin;
   built_ = true;
@@ -37,15 +47,15 @@ bool WallLists::valid(const State& s, const Walls& walls) const {
   if (!built_ || reference_.size() != s.size() || !(walls.time() >= time_)) return false;
   Real travel = 0;
   for (std::size_t w = 0; w < walls.count(); ++w) travel = std::max(travel, walls.max_travel(w, time_, walls.time()));
-  const Real room = margin_ - travel;
+  const Real room = margin_ - travel - rounding_;
   if (!(room >= 0)) return false;
   // Squared, so no root per particle; a NaN displacement fails the test too.
-  return !parallel_any(s.size(), [&](std::size_t p) { return !((s.position[p] - reference_[p]).squaredNorm() <= room * room); });
+  return !parallel_any(s.size(), [&](std::size_t p) { return !((s.position[p] - reference_[p].cast<Real>()).squaredNorm() <= room * room); });
 }
 
 std::size_t WallLists::memory_bytes() const {
   return start_.capacity() * sizeof(std::uint32_t) + wall_.capacity() * sizeof(std::uint16_t) +
-         reference_.capacity() * sizeof(Vec3) + count_.capacity() * sizeof(std::uint32_t);
+         reference_.capacity() * sizeof(Eigen::Vector3f);
 }
 
 }  // namespace dem

@@ -39,8 +39,8 @@ class WallLists {
  private:
   std::vector<std::uint32_t> start_;  // size n + 1
   std::vector<std::uint16_t> wall_;   // wall indices (types.h: max_walls fits 16 bits)
-  std::vector<Vec3> reference_;       // positions at the build [m]
-  std::vector<std::uint32_t> count_;  // scratch of build
+  std::vector<Eigen::Vector3f> reference_;  // positions at the build, in float (memory) [m]
+  Real rounding_ = 0;                 // bound on the float copy's error in a displacement [m]
   Real time_ = 0;                     // the walls' time at the build [s]
   Real margin_ = 0;                   // [m]
   bool built_ = false;
