@@ -138,7 +138,7 @@ struct IntegratorConfig {
 struct BroadphaseConfig {
   Real skin = -1;       // neighbour skin [m]; negative: 10% of the smallest radius
   bool use_kd_tree = false;  // k-d tree instead of the grid (wide size ranges)
-  bool wall_lists = true;    // per-particle lists of the lifter bars within reach (wall_lists.h)
+  bool wall_lists = true;    // per-particle lists of the walls within reach (wall_lists.h)
 };
 
 struct WorldConfig {

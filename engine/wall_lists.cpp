@@ -50,7 +50,9 @@ bool WallLists::valid(const State& s, const Walls& walls) const {
   const Real room = margin_ - travel - rounding_;
   if (!(room >= 0)) return false;
   // Squared, so no root per particle; a NaN displacement fails the test too.
-  return !parallel_any(s.size(), [&](std::size_t p) { return !((s.position[p] - reference_[p].cast<Real>()).squaredNorm() <= room * room); });
+  return !parallel_any(s.size(), [&](std::size_t p) {
+    return !((s.position[p] - reference_[p].cast<Real>()).squaredNorm() <= room * room);
+  });
 }
 
 std::size_t WallLists::memory_bytes() const {

@@ -1,7 +1,8 @@
 #pragma once
 // A broadphase for walls: for every particle, the walls it may touch before the lists go stale.
-// Walls::filtered ones (lifter bars) enter a particle's list only when within `margin` of it at the
-// build; every other wall is listed for every movable particle. The lists stay valid while each
+// Walls::filtered ones (lifter bars, and planes, boxes and cylinders that do not turn) enter a
+// particle's list only when within `margin` of it at the build; every other wall (a turning shell, a
+// mesh) is listed for every movable particle. The lists stay valid while each
 // particle's displacement since the build plus the filtered walls' largest travel (Walls::max_travel)
 // is at most the margin: then no wall left out can have come into touch. The lists only skip tests
 // that could not succeed, so contacts and results are the same as with no lists at all.

@@ -280,9 +280,9 @@ bool Walls::may_touch(std::size_t w, const Vec3& x, Real r, Real margin) const {
 
 Real Walls::max_travel(std::size_t w, Real t0, Real t1) const {
   if (!filtered(w)) return 0;
-  // A filtered wall other than a prism does not turn: it travels with its centre.
-  // A point at distance rho from the rotation axis moves by at most rho times the angle turned;
-  // the centre by the translation. Both are the configured rates times the ramp's distance factor.
+  // A point at distance rho from the rotation axis moves by at most rho times the angle turned, the
+  // centre by the translation; both are the configured rates times the ramp's distance factor. A
+  // filtered wall other than a prism does not turn: it travels with its centre.
   const WallConfig& c = config_[w];
   const Real distance = ramp_distance(t1, c.ramp_time) - ramp_distance(t0, c.ramp_time);
   const Real arm = c.kind == WallKind::prism ? prism_[w].reach : 0;
