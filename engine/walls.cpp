@@ -266,27 +266,29 @@ bool Walls::may_touch(std::size_t w, const Vec3& x, Real r, Real margin) const {
       const Real along = rel.dot(pose.direction);
       return std::abs(along) <= 0.5 * c.length + margin && (rel - along * pose.direction).norm() > c.radius - reach;
     }
-    default:
+    case WallKind::prism: {
+      // touch_prism's first test, widened by the margin: a sphere that touches the prism is within
+      // `bound` of its middle across the axis and within half its length of its middle along it.
+      const PrismShape& shape = prism_[w];
+      const Vec3 rel = pose.rotation.transpose() * (x - pose.point);
+      const Vec2 q(rel.dot(shape.u), rel.dot(shape.v));
+      return (q - shape.middle).squaredNorm() <= (reach + shape.bound) * (reach + shape.bound) &&
+             std::abs(rel.dot(c.axis)) <= shape.half_length + reach;
+    }
+    case WallKind::mesh:
       break;
   }
-  // touch_prism's first test, widened by the margin: a sphere that touches the prism is within
-  // `bound` of its middle across the axis and within half its length of its middle along it.
-  const PrismShape& shape = prism_[w];
-  const Vec3 rel = pose.rotation.transpose() * (x - pose.point);
-  const Vec2 q(rel.dot(shape.u), rel.dot(shape.v));
-  return (q - shape.middle).squaredNorm() <= (reach + shape.bound) * (reach + shape.bound) &&
-         std::abs(rel.dot(c.axis)) <= shape.half_length + reach;
+  return true;
 }
 
 Real Walls::max_travel(std::size_t w, Real t0, Real t1) const {
   if (!filtered(w)) return 0;
   // A point at distance rho from the rotation axis moves by at most rho times the angle turned, the
   // centre by the translation; both are the configured rates times the ramp's distance factor. A
-  // filtered wall other than a prism does not turn: it travels with its centre.
+  // filtered wall other than a prism does not turn (and has no prism reach): it travels with its centre.
   const WallConfig& c = config_[w];
   const Real distance = ramp_distance(t1, c.ramp_time) - ramp_distance(t0, c.ramp_time);
-  const Real arm = c.kind == WallKind::prism ? prism_[w].reach : 0;
-  return (c.velocity.norm() + c.angular_velocity.norm() * arm) * std::abs(distance);
+  return (c.velocity.norm() + c.angular_velocity.norm() * prism_[w].reach) * std::abs(distance);
 }
 
 std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features) const {
