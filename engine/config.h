@@ -133,6 +133,10 @@ struct IntegratorConfig {
   // the dx_min floor scaled by step / sync interval (error per unit step: the global error is then
   // proportional to the tolerance, at the price of finer steps; engine/step_control.h)
   bool error_per_unit_step = false;
+  // Velocity Verlet's dashpots: false, the half-step velocity (first order in lasting damped
+  // contacts); true, that velocity plus the previous forces' second half kick (second order, a tighter
+  // stability limit: engine/forces.h DashpotVelocity). The exact stepper ignores it.
+  bool predicted_dashpot = false;
 };
 
 struct BroadphaseConfig {

@@ -37,6 +37,12 @@ struct ContactKinematics {
   Real overlap_rate;         // d delta / dt = -(u . n) [m/s]
   Vec3 tangential_velocity;  // u_t: slip velocity of i against j at the contact point [m/s]
   Vec3 rolling_velocity;     // omega_r = omega_i - omega_j without the spin about n [rad/s]
+  // The same three rates as the dashpots see them (DashpotVelocity, forces.h): equal to the ones above
+  // (the half-step velocity) unless the run predicts the end-of-step velocity for its dashpots. The
+  // springs and the energy books always use the ones above.
+  Real dashpot_overlap_rate;         // [m/s]
+  Vec3 dashpot_tangential_velocity;  // [m/s]
+  Vec3 dashpot_rolling_velocity;     // [rad/s]
   bool onset = false;        // the contact's first evaluation, for the energy books
 };
 
@@ -86,14 +92,15 @@ inline Vec3 kinetic_response(Vec3& spring, const Vec3& rate, const Vec3& elastic
 ///    must not stick a contact that still slips.
 /// Only the spring force decides, not spring plus dashpot (see rolling_spring for why); while stuck
 /// the sum is bounded by mu_s F_n, so |F_t| <= mu_s F_n always.
-inline Vec3 spring_slider(Vec3& spring, std::uint8_t& mode, const Vec3& rate, Real k, Real c, Real static_limit,
-                          Real kinetic_limit, Real h) {
+/// `damped_rate` is the slip velocity the dashpot sees (ContactKinematics).
+inline Vec3 spring_slider(Vec3& spring, std::uint8_t& mode, const Vec3& rate, const Vec3& damped_rate, Real k, Real c,
+                          Real static_limit, Real kinetic_limit, Real h) {
   const bool was_sliding = (mode & mode_sliding) != 0;
   const bool reversed = was_sliding && rate.dot(spring) < 0;
   spring += rate * h;
   Vec3 elastic = -k * spring;
   const Real elastic_norm = elastic.norm();
-  const Vec3 viscous = -c * rate;
+  const Vec3 viscous = -c * damped_rate;
   const bool hold = elastic_norm <= static_limit && (was_sliding ? reversed : viscous.norm() <= static_limit);
   if (hold) {
     mode = static_cast<std::uint8_t>(mode & ~mode_sliding);
@@ -123,14 +130,15 @@ inline Vec3 spring_slider(Vec3& spring, std::uint8_t& mode, const Vec3& rate, Re
 /// Stability: forces see the half-step velocity, so a dashpot c alone maps omega_r to
 /// (1 - c h / I*) omega_r per step; c is capped at I*/h (deadbeat for one contact); several static
 /// contacts on one particle add their c h / I (stable below 2), like the normal dashpots (PHYSICS.md 2).
-inline Vec3 rolling_spring(Vec3& spring, std::uint8_t& mode, const Vec3& rate, Real k, Real c, Real inertia,
-                           Real static_limit, Real kinetic_limit, Real h) {
+/// `damped_rate` is the rolling velocity the dashpot sees (ContactKinematics).
+inline Vec3 rolling_spring(Vec3& spring, std::uint8_t& mode, const Vec3& rate, const Vec3& damped_rate, Real k, Real c,
+                           Real inertia, Real static_limit, Real kinetic_limit, Real h) {
   const bool was_rolling = (mode & mode_rolling) != 0;
   const bool reversed = was_rolling && rate.dot(spring) < 0;
   spring += rate * h;
   Vec3 elastic = -k * spring;
   const Real elastic_norm = elastic.norm();
-  Vec3 viscous = -std::min(c, inertia / h) * rate;
+  Vec3 viscous = -std::min(c, inertia / h) * damped_rate;
   const Real viscous_norm = viscous.norm();
   const bool hold = was_rolling ? reversed : (elastic_norm <= static_limit && viscous_norm <= static_limit);
   if (hold) {
@@ -160,7 +168,7 @@ struct LinearSpringDashpot {
   static ContactResponse evaluate(const LawConstants& c, const ContactKinematics& k, ContactHistory& history,
                                   Real h) {
     ContactResponse out;
-    Real fn = c.k_n * k.overlap + c.c_n * k.overlap_rate;
+    Real fn = c.k_n * k.overlap + c.c_n * k.dashpot_overlap_rate;
     if constexpr (Sep == Separation::force_zero) fn = std::max(fn, Real{0});
     out.normal_force = fn;
     out.force = fn * k.normal;
@@ -169,8 +177,8 @@ struct LinearSpringDashpot {
 
     if constexpr (Friction) {
       history.tangential_spring = law_detail::project_keep_length(history.tangential_spring, k.normal);
-      out.force += law_detail::spring_slider(history.tangential_spring, history.mode, k.tangential_velocity, c.k_t,
-                                             c.c_t, c.mu_s * load, c.mu * load, h);
+      out.force += law_detail::spring_slider(history.tangential_spring, history.mode, k.tangential_velocity,
+                                             k.dashpot_tangential_velocity, c.k_t, c.c_t, c.mu_s * load, c.mu * load, h);
     }
     if constexpr (Rolling != RollingKind::none) {
       bool active = true;
@@ -178,8 +186,8 @@ struct LinearSpringDashpot {
       if (active) {
         history.rolling_spring = law_detail::project_keep_length(history.rolling_spring, k.normal);
         out.rolling_torque = law_detail::rolling_spring(history.rolling_spring, history.mode, k.rolling_velocity,
-                                                        c.k_r, c.c_r, c.i_star, c.mu_rs * c.r_star * load,
-                                                        c.mu_r * c.r_star * load, h);
+                                                        k.dashpot_rolling_velocity, c.k_r, c.c_r, c.i_star,
+                                                        c.mu_rs * c.r_star * load, c.mu_r * c.r_star * load, h);
       } else {
         history.rolling_spring.setZero();
         history.mode = static_cast<std::uint8_t>(history.mode | mode_rolling);

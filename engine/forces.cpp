@@ -33,8 +33,33 @@ void store_history(PairContacts& c, std::size_t k, bool books, const ContactHist
   if (books) c.books[k] = {h.normal_work, h.normal_elastic, h.impact_energy};
 }
 
+/// A particle's velocity and spin as its dashpots see them (DashpotVelocity): the half-step values, or
+/// with the second half kick of the previous forces added, as kick() would apply it.
+struct DampedMotion {
+  Vec3 velocity;
+  Vec3 angular_velocity;
+};
+
+DampedMotion damped_motion(const State& s, ParticleIndex p, Real h, const DashpotVelocity& d) {
+  DampedMotion m{s.velocity[p], s.angular_velocity[p]};
+  const Real inv_m = s.inv_mass[p];
+  if (!d.predicted || inv_m == 0) return m;
+  m.velocity += (0.5 * h) * (inv_m * s.force[p] + d.gravity);
+  if (d.dimension == 2) m.velocity.z() = 0;
+  m.angular_velocity += (0.5 * h * s.inv_inertia[p]) * s.torque[p];
+  return m;
+}
+
+/// Fills the dashpot rates of `kin` from the relative contact-point velocity `u` and relative spin
+/// `w_rel` (without the spin about n) the dashpots see.
+void set_dashpot_rates(ContactKinematics& kin, const Vec3& u, const Vec3& w_rel) {
+  kin.dashpot_overlap_rate = -u.dot(kin.normal);
+  kin.dashpot_tangential_velocity = u + kin.dashpot_overlap_rate * kin.normal;
+  kin.dashpot_rolling_velocity = w_rel;
+}
+
 template <class Law>
-void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c, Real h) {
+void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c, Real h, const DashpotVelocity& d) {
   DEM_ASSERT(c.parts.friction == Law::friction && c.parts.rolling == Law::rolling);
   const bool books = c.parts.books;
   parallel_for(c.size(), [&](std::size_t k) {
@@ -57,6 +82,18 @@ void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c
     kin.overlap_rate = -u.dot(n);
     kin.tangential_velocity = u + kin.overlap_rate * n;
     kin.rolling_velocity = w_rel;
+    if (d.predicted) {
+      const DampedMotion a = damped_motion(s, i, h, d), b = damped_motion(s, j, h, d);
+      Vec3 ud = a.velocity - b.velocity, wd = Vec3::Zero();
+      if constexpr (Law::uses_rotation) {
+        ud -= (arm_i * a.angular_velocity + arm_j * b.angular_velocity).cross(n);
+        wd = a.angular_velocity - b.angular_velocity;
+        wd -= wd.dot(n) * n;
+      }
+      set_dashpot_rates(kin, ud, wd);
+    } else {
+      set_dashpot_rates(kin, u, w_rel);
+    }
     kin.onset = c.overlap[k] == 0;  // a new contact: no evaluation has stored its overlap yet
     ContactHistory history = load_history<Law>(c, k, books);
     const Real inv_m = s.inv_mass[i] + s.inv_mass[j];  // two fixed particles: no impact energy
@@ -78,7 +115,8 @@ void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c
 }
 
 template <class Law>
-void wall_forces(const State& s, const MaterialTable& materials, const Walls& walls, WallContacts& c, Real h) {
+void wall_forces(const State& s, const MaterialTable& materials, const Walls& walls, WallContacts& c, Real h,
+                 const DashpotVelocity& d) {
   parallel_for(c.size(), [&](std::size_t k) {
     const ParticleIndex p = c.particle[k];
     const std::uint32_t w = c.wall[k];
@@ -96,7 +134,8 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
     const Vec3& n = touch.normal;
     const Real arm = s.radius[p] - 0.5 * touch.overlap;
     const Vec3 point = s.position[p] - arm * n;
-    Vec3 u = s.velocity[p] - walls.velocity_at(w, point);
+    const Vec3 wall_velocity = walls.velocity_at(w, point);
+    Vec3 u = s.velocity[p] - wall_velocity;
     Vec3 w_rel = Vec3::Zero();
     if constexpr (Law::uses_rotation) {
       u -= arm * s.angular_velocity[p].cross(n);
@@ -110,6 +149,18 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
     kin.overlap_rate = -u.dot(n);
     kin.tangential_velocity = u + kin.overlap_rate * n;
     kin.rolling_velocity = w_rel;
+    if (d.predicted) {
+      const DampedMotion a = damped_motion(s, p, h, d);
+      Vec3 ud = a.velocity - wall_velocity, wd = Vec3::Zero();
+      if constexpr (Law::uses_rotation) {
+        ud -= arm * a.angular_velocity.cross(n);
+        wd = a.angular_velocity - walls.angular_velocity(w);
+        wd -= wd.dot(n) * n;
+      }
+      set_dashpot_rates(kin, ud, wd);
+    } else {
+      set_dashpot_rates(kin, u, w_rel);
+    }
     kin.onset = c.overlap[k] == 0;  // a new contact (or one whose touch failed last time)
     ContactHistory& history = c.history[k];
     if (history.impact_energy < 0) history.impact_energy = 0.5 * kin.overlap_rate * kin.overlap_rate / s.inv_mass[p];

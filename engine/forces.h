@@ -12,10 +12,24 @@
 
 namespace dem {
 
+/// The velocity a dashpot sees (IntegratorConfig::dashpot_velocity). Velocity Verlet evaluates forces
+/// between its two kicks, at the half-step velocity v(t + h/2): a dashpot then lags by h/2, so a
+/// lasting damped contact is only first order. `predicted` adds the second half kick the previous
+/// forces would give (v + h/2 (F/m + g), omega + h/2 T/I): second order, for a stability limit of
+/// omega0 h < 2 (sqrt(1 + 4 zeta^2) - 2 zeta) instead of 2 (sqrt(1 + zeta^2) - zeta) (PHYSICS.md 2).
+struct DashpotVelocity {
+  bool predicted = false;
+  Vec3 gravity = Vec3::Zero();  // [m/s^2]
+  int dimension = 3;
+};
+
 /// The loops of one run, instantiated for the run's contact law (chosen once, never per contact).
+/// h is the step the springs advance by [s]; state.force and state.torque still hold the previous
+/// evaluation's sums (the gather writes them afterwards), which a predicted dashpot reads.
 struct ForceKernels {
-  void (*pair_forces)(const State&, const MaterialTable&, PairContacts&, Real h) = nullptr;
-  void (*wall_forces)(const State&, const MaterialTable&, const Walls&, WallContacts&, Real h) = nullptr;
+  void (*pair_forces)(const State&, const MaterialTable&, PairContacts&, Real h, const DashpotVelocity&) = nullptr;
+  void (*wall_forces)(const State&, const MaterialTable&, const Walls&, WallContacts&, Real h,
+                      const DashpotVelocity&) = nullptr;
   bool uses_rotation = false;
 };
 

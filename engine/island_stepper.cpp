@@ -17,8 +17,8 @@ void evaluate_forces(IslandState& s, const broadphase::CandidatePairs& candidate
   build_pair_adjacency(st.size(), s.pairs, s.adjacency);
   s.ended_dissipation +=
       update_wall_contacts(st, scratch.walls, *physics.materials, s.walls, scratch.contacts, s.adjacency.wall_start);
-  physics.kernels.pair_forces(st, *physics.materials, s.pairs, h);
-  physics.kernels.wall_forces(st, *physics.materials, scratch.walls, s.walls, h);
+  physics.kernels.pair_forces(st, *physics.materials, s.pairs, h, physics.dashpot);
+  physics.kernels.wall_forces(st, *physics.materials, scratch.walls, s.walls, h, physics.dashpot);
   gather_forces(st, s.pairs, s.walls, s.adjacency, physics.kernels.uses_rotation, physics.dimension);
 }
 

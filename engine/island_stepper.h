@@ -50,6 +50,7 @@ struct IslandPhysics {
   Method method = Method::verlet;
   Separation separation = Separation::force_zero;
   bool walls_move = false;
+  DashpotVelocity dashpot;
 };
 
 /// The error control of one round.

@@ -685,6 +685,7 @@ bool read_integrator(TableReader& top, Scene& scene) {
   c.dx_min = r.positive("dx_min", c.dx_min);
   c.richardson = r.boolean("richardson", c.richardson);
   c.error_per_unit_step = r.boolean("error_per_unit_step", c.error_per_unit_step);
+  c.predicted_dashpot = r.boolean("predicted_dashpot", c.predicted_dashpot);
   r.finish();
   return level_max_given;
 }

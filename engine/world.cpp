@@ -106,8 +106,9 @@ void World::evaluate_forces(Real h, bool force_rebuild) {
   ended_dissipation_ += update_wall_contacts(state_, walls_, materials_, wall_contacts_, workspace_,
                                              adjacency_.wall_start, use_wall_lists_ ? &wall_lists_ : nullptr);
   if (spectra_) spectra_->record_ended(workspace_.walls, wall_contacts_);
-  kernels_.pair_forces(state_, materials_, pairs_, h);
-  kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, h);
+  const DashpotVelocity dashpot = dashpot_velocity();
+  kernels_.pair_forces(state_, materials_, pairs_, h, dashpot);
+  kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, h, dashpot);
   gather_forces(state_, pairs_, wall_contacts_, adjacency_, kernels_.uses_rotation, config_.model.dimension);
 }
 

@@ -221,6 +221,9 @@ class World {
  private:
   void add_particles();
   void evaluate_forces(Real h, bool force_rebuild);
+  DashpotVelocity dashpot_velocity() const {
+    return {config_.integrator.predicted_dashpot, gravity_, config_.model.dimension};
+  }
   void rebuild_candidates();
   void step_exact(Real h);
   // Step doubling (world_doubling.cpp).

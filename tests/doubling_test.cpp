@@ -2,8 +2,8 @@
 //  1. Tolerance means something: the error against a converged reference falls as the tolerance
 //     tightens from 1e-2 to 1e-7, and error / tolerance stays within a factor 10 over that range
 //     (seed slope, PHYSICS.md 6.8 engine variant, with integrator.error_per_unit_step against the
-//     exact stepper; and a 50-particle cluster falling onto a plane, with the seed's norm); tolerances
-//     down to 1e-12 terminate with forced steps counted.
+//     exact stepper; and a damped 50-particle cluster falling onto a plane, with error_per_unit_step
+//     and integrator.predicted_dashpot); tolerances down to 1e-12 terminate with forced steps counted.
 //  2. A particle flying at a wall at v h_max = 10 R spends >= 90% of its steps at level_max, is
 //     demoted only near the wall, never tunnels and bounces with the PHYSICS.md 1.2 restitution.
 //  3. Two islands at different levels that touch inside one round are merged and the round redone;
@@ -14,18 +14,8 @@
 // Every expected value comes from PHYSICS.md formulas, conservation laws or converged references
 // computed here; none is copied from the engine's output.
 //
-// Known failures (measured, reported to the lead; the tests are skipped unless the environment sets
-// DEM_RUN_KNOWN_FAILURES=1, so the default suite stays green while they are open):
-//  - on the 50-particle cluster, error / tolerance spreads 2.4e3 times over tolerances 1e-2 .. 1e-7
-//    with the seed's norm (formula (3) weighs a velocity error by the step, so the error falls only
-//    as ~ tol^0.4). error_per_unit_step does not rescue it: Verlet's dashpot uses the half-step
-//    velocity, so in lasting damped contacts it is first order and tolerances of 1e-5 and below
-//    reach level_min (measured: spread 28, 4e8 particle-steps at 1e-7). Undamped (e = 1) the spread
-//    is 16, within 2.6 up to 1e-6, and the error at 1e-7 (3e-9 m) is the reference's own: exact
-//    stepper at 2^-20 s against 2^-21 s and Verlet at 2^-22 s against 2^-23 s both differ by 2.7e-9 m
-//    (near-grazing contacts amplify tiny differences); over 20 ms instead of 30 the spread is 9.1, but
-//    the 1e-7 point (8.7e-10 m) again equals the reference's refinement, so that pass would not mean
-//    anything.
+// Known failure (measured, reported to the lead; the test is skipped unless the environment sets
+// DEM_RUN_KNOWN_FAILURES=1, so the default suite stays green while it is open):
 //  - the packing's energy error under doubling at tolerance 1e-2 steps up at contact events instead
 //    of oscillating: mean |dE| over the last tenth of 2e4 sync intervals is 23 times that over the
 //    first tenth (6.8 in an experiment with error_per_unit_step on: the measure follows a few events).
@@ -191,15 +181,23 @@ std::vector<Vec3> cluster_end(WorldConfig c, long intervals_per_sync) {
   return end;
 }
 
+// Error per unit step and the predicted dashpot: with the seed's norm the error falls only as about
+// tol^0.4 (velocity errors are weighed by the step), and with the half-step dashpot velocity Verlet
+// is first order in these lasting damped contacts, so each decade of tolerance costs ten times the
+// steps (1.8 M particle-steps at 1e-3, 159 M at 1e-5) instead of about 2.7 times (0.27 M, 1.9 M).
+// Steps down to 2^-38 s: a contact onset (the dashpot force jumps by c v) stays first order in h, and
+// with level_min = -18 (2^-28 s) tolerances of 1e-5 and below were forced there.
 std::vector<Vec3> cluster_doubling(Real tolerance) {
   WorldConfig c = cluster();
-  set_doubling(c, 0x1p-10, -18, 0, tolerance);
+  set_doubling(c, 0x1p-10, -28, 0, tolerance);
+  c.integrator.error_per_unit_step = true;
+  c.integrator.predicted_dashpot = true;
   return cluster_end(c, 1);
 }
 
 // Reference: the exact stepper (PHYSICS.md 3.4 scheme D, an independent method: exact for free
-// flight, wall contacts and isolated pairs, second order in the coupling) at a fixed step of 2^-18 s,
-// checked against 2^-19 s.
+// flight, wall contacts and isolated pairs, second order in the coupling) at a fixed step of 2^-22 s,
+// checked against 2^-23 s.
 std::vector<Vec3> cluster_exact(int exponent) {
   WorldConfig c = cluster();
   c.integrator.method = Method::exact;
@@ -209,9 +207,9 @@ std::vector<Vec3> cluster_exact(int exponent) {
 
 const Sweep& cluster_sweep() {
   static const Sweep sweep = [] {
-    const std::vector<Vec3> reference = cluster_exact(18);
+    const std::vector<Vec3> reference = cluster_exact(22);
     Sweep s;
-    s.reference_refinement = max_distance(reference, cluster_exact(19));
+    s.reference_refinement = max_distance(reference, cluster_exact(23));
     for (Real tol : sweep_tolerances) s.error.push_back(max_distance(cluster_doubling(tol), reference));
     print_sweep("50-particle cluster (max position error over particles at 30 ms)", s);
     return s;
@@ -254,11 +252,7 @@ TEST(Doubling, SeedSlopeErrorIsProportionalToTolerance) {
 TEST(Doubling, ClusterErrorFallsAsToleranceTightens) { expect_error_falls(cluster_sweep()); }
 
 TEST(Doubling, ClusterErrorIsProportionalToTolerance) {
-  const Real spread = spread_of_error_over_tolerance(cluster_sweep());
-  if (!run_known_failures())
-    GTEST_SKIP() << "known engine failure, reported: max/min of error/tolerance is " << spread
-                 << " (DEM_RUN_KNOWN_FAILURES=1 runs the check)";
-  EXPECT_LT(spread, 10.0);
+  EXPECT_LT(spread_of_error_over_tolerance(cluster_sweep()), 10.0);
 }
 
 // Below the round-off floor (PHYSICS.md 4: ~eps |x| / (|dX| + dX_min)) only forced accepts at

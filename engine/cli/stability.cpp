@@ -45,7 +45,9 @@ std::vector<ContactStability> contact_stability(const WorldConfig& w) {
     s.omega0 = std::sqrt(c.k_n / em.m_star);
     s.zeta = c.c_n / (2 * std::sqrt(c.k_n * em.m_star));
     s.cundall = 2 * std::sqrt(em.m_star / c.k_n);
-    s.limit = 2 * (std::sqrt(1 + s.zeta * s.zeta) - s.zeta) / s.omega0;
+    // A predicted dashpot (integrator.predicted_dashpot) acts on the step like one of twice the ratio.
+    const Real z = w.integrator.predicted_dashpot ? 2 * s.zeta : s.zeta;
+    s.limit = 2 * (std::sqrt(1 + z * z) - z) / s.omega0;
     if (materials.any_friction() && c.k_t > 0) s.limit = std::min(s.limit, 2 / std::sqrt(c.k_t / em.m_t));
     s.tsuji = pi * std::sqrt(em.m_star / c.k_n) / 5;
     classes.push_back(s);
