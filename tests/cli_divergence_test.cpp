@@ -90,6 +90,19 @@ TEST(CliDivergence, AStepBeyondTheStabilityLimitIsWarnedAtLoadAndDoublingAdapts)
   fs::remove_all(base);
 }
 
+// A predicted dashpot (integrator.predicted_dashpot) tightens the limit to omega0 h < 2 (sqrt(1 +
+// 4 zeta^2) - 2 zeta) (engine/forces.h): on the seed slope (omega0 = 22.36 1/s, zeta = 0.2) 0.0606 s
+// instead of 0.0733 s, so dt = 0.065 s is warned with it and not without.
+TEST(CliDivergence, PredictedDashpotIsWarnedAtItsOwnTighterLimit) {
+  const fs::path base = scratch("predicted");
+  EXPECT_EQ(run("--set integrator.dt=0.065 --until 0.2", base / "half_step"), 0);
+  EXPECT_EQ(read(base / "half_step.err").find("warning"), std::string::npos) << read(base / "half_step.err");
+  EXPECT_EQ(run("--set integrator.dt=0.065 --set integrator.predicted_dashpot=true --until 0.2", base / "predicted"), 0);
+  EXPECT_NE(read(base / "predicted.err").find("exceeds the stability limit 0.06056 s"), std::string::npos)
+      << read(base / "predicted.err");
+  fs::remove_all(base);
+}
+
 // With an output interval longer than the run no row falls due before the end: the final row, and
 // the settle workflow's stop on low kinetic energy (which writes settled.csv), must still be audited.
 TEST(CliDivergence, FinalRowAndSettleStopAreAudited) {
