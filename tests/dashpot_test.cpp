@@ -1,4 +1,4 @@
-// The velocity velocity Verlet's dashpots see (integrator.predicted_dashpot; engine/forces.h,
+// The velocity that velocity Verlet's dashpots see (integrator.predicted_dashpot; engine/forces.h,
 // DashpotVelocity), on a lasting damped contact whose motion is known in closed form: a ball
 // resting under gravity on a plane, or on an immovable ball, released from rest off its equilibrium
 // overlap by less than that overlap, so the contact never opens and the overlap is a damped
