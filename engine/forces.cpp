@@ -33,29 +33,75 @@ void store_history(PairContacts& c, std::size_t k, bool books, const ContactHist
   if (books) c.books[k] = {h.normal_work, h.normal_elastic, h.impact_energy};
 }
 
-/// A particle's velocity and spin as its dashpots see them (DashpotVelocity): the half-step values, or
-/// with the second half kick of the previous forces added, as kick() would apply it.
-struct DampedMotion {
+/// A particle's velocity and spin.
+struct Motion {
   Vec3 velocity;
   Vec3 angular_velocity;
 };
 
-DampedMotion damped_motion(const State& s, ParticleIndex p, Real h, const DashpotVelocity& d) {
-  DampedMotion m{s.velocity[p], s.angular_velocity[p]};
+Motion motion_of(const State& s, ParticleIndex p) { return {s.velocity[p], s.angular_velocity[p]}; }
+
+/// The motion its dashpots see when they are predicted (DashpotVelocity): the half-step values with
+/// the second half kick of the previous forces added, as kick() would apply it.
+Motion predicted_motion(const State& s, ParticleIndex p, Real h, const DashpotVelocity& d) {
+  Motion m = motion_of(s, p);
   const Real inv_m = s.inv_mass[p];
-  if (!d.predicted || inv_m == 0) return m;
+  if (inv_m == 0) return m;
   m.velocity += (0.5 * h) * (inv_m * s.force[p] + d.gravity);
   if (d.dimension == 2) m.velocity.z() = 0;
   m.angular_velocity += (0.5 * h * s.inv_inertia[p]) * s.torque[p];
   return m;
 }
 
-/// Fills the dashpot rates of `kin` from the relative contact-point velocity `u` and relative spin
-/// `w_rel` (without the spin about n) the dashpots see.
-void set_dashpot_rates(ContactKinematics& kin, const Vec3& u, const Vec3& w_rel) {
-  kin.dashpot_overlap_rate = -u.dot(kin.normal);
-  kin.dashpot_tangential_velocity = u + kin.dashpot_overlap_rate * kin.normal;
-  kin.dashpot_rolling_velocity = w_rel;
+/// Relative motion at a contact: the contact-point velocity u of i against j and the rolling
+/// velocity omega_r (the relative spin without its part about n).
+struct SurfaceMotion {
+  Vec3 u;
+  Vec3 rolling = Vec3::Zero();
+};
+
+/// Contact-point velocities of a pair: omega_i x (-a_i n) - omega_j x (a_j n) (PHYSICS.md 1.3).
+template <bool Rotation>
+SurfaceMotion pair_surface(const Motion& a, const Motion& b, Real arm_a, Real arm_b, const Vec3& n) {
+  SurfaceMotion m{a.velocity - b.velocity};
+  if constexpr (Rotation) {
+    m.u -= (arm_a * a.angular_velocity + arm_b * b.angular_velocity).cross(n);
+    m.rolling = a.angular_velocity - b.angular_velocity;
+    m.rolling -= m.rolling.dot(n) * n;
+  }
+  return m;
+}
+
+/// The same against a wall whose material at the contact point moves at `wall_velocity` and spins
+/// at `wall_spin`.
+template <bool Rotation>
+SurfaceMotion wall_surface(const Motion& a, const Vec3& wall_velocity, const Vec3& wall_spin, Real arm,
+                           const Vec3& n) {
+  SurfaceMotion m{a.velocity - wall_velocity};
+  if constexpr (Rotation) {
+    m.u -= arm * a.angular_velocity.cross(n);
+    m.rolling = a.angular_velocity - wall_spin;
+    m.rolling -= m.rolling.dot(n) * n;
+  }
+  return m;
+}
+
+/// The rates of `kin` from the half-step motion, and the dashpots' from `damped` (the same motion
+/// unless the run predicts it).
+void set_rates(ContactKinematics& kin, const SurfaceMotion& half_step, const SurfaceMotion* damped) {
+  const Vec3& n = kin.normal;
+  kin.overlap_rate = -half_step.u.dot(n);
+  kin.tangential_velocity = half_step.u + kin.overlap_rate * n;
+  kin.rolling_velocity = half_step.rolling;
+  if (!damped) {
+    kin.dashpot_overlap_rate = kin.overlap_rate;
+    kin.dashpot_tangential_velocity = kin.tangential_velocity;
+    kin.dashpot_rolling_velocity = kin.rolling_velocity;
+    return;
+  }
+  kin.dashpot_overlap_rate = -damped->u.dot(n);
+  kin.dashpot_tangential_velocity = damped->u + kin.dashpot_overlap_rate * n;
+  kin.dashpot_rolling_velocity = damped->rolling;
 }
 
 template <class Law>
@@ -67,32 +113,18 @@ void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c
     const auto [n, dist] = pair_normal(s, i, j);
     const Real overlap = s.radius[i] + s.radius[j] - dist;
     const Real arm_i = s.radius[i] - 0.5 * overlap, arm_j = s.radius[j] - 0.5 * overlap;  // as gather_forces
-    Vec3 u = s.velocity[i] - s.velocity[j];
-    Vec3 w_rel = Vec3::Zero();
-    if constexpr (Law::uses_rotation) {
-      // Contact-point velocities: omega_i x (-a_i n) - omega_j x (a_j n) (PHYSICS.md 1.3).
-      u -= (arm_i * s.angular_velocity[i] + arm_j * s.angular_velocity[j]).cross(n);
-      w_rel = s.angular_velocity[i] - s.angular_velocity[j];
-      w_rel -= w_rel.dot(n) * n;
-    }
+    constexpr bool rotation = Law::uses_rotation;
+    const SurfaceMotion half_step = pair_surface<rotation>(motion_of(s, i), motion_of(s, j), arm_i, arm_j, n);
     ContactKinematics kin;
     kin.normal = n;
     kin.overlap = overlap;
     kin.previous_force = c.force[k];
-    kin.overlap_rate = -u.dot(n);
-    kin.tangential_velocity = u + kin.overlap_rate * n;
-    kin.rolling_velocity = w_rel;
     if (d.predicted) {
-      const DampedMotion a = damped_motion(s, i, h, d), b = damped_motion(s, j, h, d);
-      Vec3 ud = a.velocity - b.velocity, wd = Vec3::Zero();
-      if constexpr (Law::uses_rotation) {
-        ud -= (arm_i * a.angular_velocity + arm_j * b.angular_velocity).cross(n);
-        wd = a.angular_velocity - b.angular_velocity;
-        wd -= wd.dot(n) * n;
-      }
-      set_dashpot_rates(kin, ud, wd);
+      const SurfaceMotion damped =
+          pair_surface<rotation>(predicted_motion(s, i, h, d), predicted_motion(s, j, h, d), arm_i, arm_j, n);
+      set_rates(kin, half_step, &damped);
     } else {
-      set_dashpot_rates(kin, u, w_rel);
+      set_rates(kin, half_step, nullptr);
     }
     kin.onset = c.overlap[k] == 0;  // a new contact: no evaluation has stored its overlap yet
     ContactHistory history = load_history<Law>(c, k, books);
@@ -135,31 +167,18 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
     const Real arm = s.radius[p] - 0.5 * touch.overlap;
     const Vec3 point = s.position[p] - arm * n;
     const Vec3 wall_velocity = walls.velocity_at(w, point);
-    Vec3 u = s.velocity[p] - wall_velocity;
-    Vec3 w_rel = Vec3::Zero();
-    if constexpr (Law::uses_rotation) {
-      u -= arm * s.angular_velocity[p].cross(n);
-      w_rel = s.angular_velocity[p] - walls.angular_velocity(w);
-      w_rel -= w_rel.dot(n) * n;
-    }
+    constexpr bool rotation = Law::uses_rotation;
+    const Vec3 wall_spin = rotation ? walls.angular_velocity(w) : Vec3::Zero();
+    const SurfaceMotion half_step = wall_surface<rotation>(motion_of(s, p), wall_velocity, wall_spin, arm, n);
     ContactKinematics kin;
     kin.normal = n;
     kin.overlap = touch.overlap;
     kin.previous_force = c.force[k];
-    kin.overlap_rate = -u.dot(n);
-    kin.tangential_velocity = u + kin.overlap_rate * n;
-    kin.rolling_velocity = w_rel;
     if (d.predicted) {
-      const DampedMotion a = damped_motion(s, p, h, d);
-      Vec3 ud = a.velocity - wall_velocity, wd = Vec3::Zero();
-      if constexpr (Law::uses_rotation) {
-        ud -= arm * a.angular_velocity.cross(n);
-        wd = a.angular_velocity - walls.angular_velocity(w);
-        wd -= wd.dot(n) * n;
-      }
-      set_dashpot_rates(kin, ud, wd);
+      const SurfaceMotion damped = wall_surface<rotation>(predicted_motion(s, p, h, d), wall_velocity, wall_spin, arm, n);
+      set_rates(kin, half_step, &damped);
     } else {
-      set_dashpot_rates(kin, u, w_rel);
+      set_rates(kin, half_step, nullptr);
     }
     kin.onset = c.overlap[k] == 0;  // a new contact (or one whose touch failed last time)
     ContactHistory& history = c.history[k];
