@@ -252,13 +252,13 @@ inline WallConfig box_container(const Vec3& half_extents) {
   return box;
 }
 
-inline WorldConfig packing_config(Method method) {
+inline WorldConfig packing_config(Method method, std::uint64_t seed = 20240611) {
   const int nx = 6, ny = 6;
   const Real r0 = 0.01, spacing = 2 * r0 * 0.99;  // about 1% overlap between neighbours
   WorldConfig c = base_config(1.0, 2);
   c.integrator.method = method;
   c.contacts[0].normal_stiffness = 1e4;
-  std::mt19937_64 rng(20240611);
+  std::mt19937_64 rng(seed);
   std::uniform_real_distribution<Real> u(-1, 1);
   for (int i = 0; i < nx; ++i) {
     for (int j = 0; j < ny; ++j) {
