@@ -21,6 +21,14 @@ void for_each_ended(const std::vector<std::uint64_t>& before, const std::vector<
   }
 }
 
+/// Impact energy, normal and tangential (rolling included) loss of one ended contact [J]. As in the
+/// World's books: dissipated = work - elastic, the normal work including the step on which the
+/// contact parted (contacts.cpp, release_work); the rest of the loss is tangential and rolling.
+ContactEvents::Event event_of(CollisionSpectra::Kind kind, const ContactHistory& history, Real work, Real elastic) {
+  const double normal = history.normal_work - history.normal_elastic;
+  return {kind, {std::max(history.impact_energy, Real(0)), normal, (work - elastic) - normal}};
+}
+
 }  // namespace
 
 int CollisionSpectra::bin_of(double energy) {
@@ -32,19 +40,23 @@ int CollisionSpectra::bin_of(double energy) {
 double CollisionSpectra::bin_low(int b) { return lowest_energy * std::pow(10.0, static_cast<double>(b) / bins_per_decade); }
 
 void CollisionSpectra::record(Kind kind, const ContactHistory& history, Real work, Real elastic) {
-  // As in the World's books: dissipated = work - elastic, the normal work including the step on
-  // which the contact parted (contacts.cpp, release_work); the rest of the loss is tangential and rolling.
-  const double normal = history.normal_work - history.normal_elastic;
-  const double tangential = (work - elastic) - normal;
-  const double values[quantity_count] = {std::max(history.impact_energy, Real(0)), normal, tangential};
+  const ContactEvents::Event e = event_of(kind, history, work, elastic);
+  record_event(e.kind, e.value);
+}
+
+void CollisionSpectra::record(const ContactEvents& events) {
+  for (const ContactEvents::Event& e : events.events()) record_event(e.kind, e.value);
+}
+
+void CollisionSpectra::record_event(Kind kind, const double (&value)[quantity_count]) {
   for (int q = 0; q < quantity_count; ++q) {
     Histogram& h = histogram_[kind][q];
-    const int b = bin_of(values[q]);
+    const int b = bin_of(value[q]);
     ++h.count[b];
-    h.energy[b] += values[q];
+    h.energy[b] += value[q];
   }
   ++events_[kind];
-  dissipated_ += normal + tangential;
+  dissipated_ += value[normal_dissipated] + value[tangential_dissipated];
 }
 
 void CollisionSpectra::record_ended(const PairContacts& before, const std::vector<std::uint64_t>& after_key) {
@@ -53,6 +65,18 @@ void CollisionSpectra::record_ended(const PairContacts& before, const std::vecto
 
 void CollisionSpectra::record_ended(const WallContacts& before, const WallContacts& after) {
   for_each_ended(before.key, after.key, [&](std::size_t k) { record(ball_wall, before.history[k], before.work[k], before.elastic[k]); });
+}
+
+void ContactEvents::record_ended(const PairContacts& before, const std::vector<std::uint64_t>& after_key) {
+  for_each_ended(before.key, after_key, [&](std::size_t k) {
+    events_.push_back(event_of(CollisionSpectra::ball_ball, before.history(k), before.work[k], before.elastic[k]));
+  });
+}
+
+void ContactEvents::record_ended(const WallContacts& before, const WallContacts& after) {
+  for_each_ended(before.key, after.key, [&](std::size_t k) {
+    events_.push_back(event_of(CollisionSpectra::ball_wall, before.history[k], before.work[k], before.elastic[k]));
+  });
 }
 
 double CollisionSpectra::dissipated() const { return dissipated_; }

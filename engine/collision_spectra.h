@@ -13,6 +13,8 @@
 
 namespace dem {
 
+class ContactEvents;
+
 class CollisionSpectra {
  public:
   enum Kind { ball_ball, ball_wall, kind_count };
@@ -33,6 +35,8 @@ class CollisionSpectra {
 
   /// Books one ended contact (its history, work and elastic energy at its last evaluation).
   void record(Kind kind, const ContactHistory& history, Real work, Real elastic);
+  /// Books the events of a log, in its order.
+  void record(const ContactEvents& events);
 
   /// Total energy the booked events dissipated (normal and tangential) [J].
   double dissipated() const;
@@ -49,6 +53,7 @@ class CollisionSpectra {
 
  private:
   static int bin_of(double energy);
+  void record_event(Kind kind, const double (&value)[quantity_count]);
 
   struct Histogram {
     std::array<std::uint64_t, bin_count> count{};
@@ -57,6 +62,25 @@ class CollisionSpectra {
   std::array<std::array<Histogram, quantity_count>, kind_count> histogram_{};
   std::array<std::uint64_t, kind_count> events_{};
   double dissipated_ = 0;
+};
+
+/// Contact events kept in order until they can be booked: step doubling's islands log the contacts
+/// that end in their trial steps, and only the accepted trial's log reaches the World's spectra (in
+/// island order), so a rejected step or a redone round books nothing.
+class ContactEvents {
+ public:
+  struct Event {
+    CollisionSpectra::Kind kind;
+    double value[CollisionSpectra::quantity_count];  // [J], as CollisionSpectra::record bins them
+  };
+  /// The same ended contacts as CollisionSpectra::record_ended finds, logged instead of booked.
+  void record_ended(const PairContacts& before, const std::vector<std::uint64_t>& after_key);
+  void record_ended(const WallContacts& before, const WallContacts& after);
+  void clear() { events_.clear(); }
+  const std::vector<Event>& events() const { return events_; }
+
+ private:
+  std::vector<Event> events_;
 };
 
 }  // namespace dem

@@ -154,7 +154,7 @@ struct WorldConfig {
   IntegratorConfig integrator;
   BroadphaseConfig broadphase;
   int threads = 0;  // 0: the cores in the process's affinity mask
-  bool collision_spectra = false;  // book contact events for energy spectra (fixed control, Verlet)
+  bool collision_spectra = false;  // book contact events for energy spectra (velocity Verlet, either control)
 };
 
 }  // namespace dem

@@ -13,10 +13,16 @@ namespace {
 void evaluate_forces(IslandState& s, const broadphase::CandidatePairs& candidates, const IslandPhysics& physics,
                      IslandScratch& scratch, Real h) {
   State& st = s.state;
-  s.ended_dissipation += update_pair_contacts(st, candidates, *physics.materials, s.pairs, scratch.contacts);
+  // Contacts that end are logged while the old list is still whole (as World::evaluate_forces books them).
+  const EndedPairsHook log_ended = [&s](const PairContacts& before, const std::vector<std::uint64_t>& after_key) {
+    s.events.record_ended(before, after_key);
+  };
+  s.ended_dissipation += update_pair_contacts(st, candidates, *physics.materials, s.pairs, scratch.contacts,
+                                              physics.book_events ? log_ended : EndedPairsHook{});
   build_pair_adjacency(st.size(), s.pairs, s.adjacency);
   s.ended_dissipation +=
       update_wall_contacts(st, scratch.walls, *physics.materials, s.walls, scratch.contacts, s.adjacency.wall_start);
+  if (physics.book_events) s.events.record_ended(scratch.contacts.walls, s.walls);
   physics.kernels.pair_forces(st, *physics.materials, s.pairs, h, physics.dashpot);
   physics.kernels.wall_forces(st, *physics.materials, scratch.walls, s.walls, h, physics.dashpot);
   gather_forces(st, s.pairs, s.walls, s.adjacency, physics.kernels.uses_rotation, physics.dimension);

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "broadphase/candidate_pairs.h"
+#include "engine/collision_spectra.h"
 #include "engine/contacts.h"
 #include "engine/exact_stepper.h"
 #include "engine/forces.h"
@@ -34,6 +35,7 @@ struct IslandState {
   Real exact_dissipated = 0;    // by the exact stepper's flows [J]
   Worst exact_deepest;          // the deepest overlap inside the exact stepper's steps (step_watch.h)
   Real wall_work = 0;           // by moving walls on the island [J]
+  ContactEvents events;         // contacts that ended (IslandPhysics::book_events), for the World's spectra
   std::uint64_t unresolved = 0; // exact steps accepted with a contact still missed
   // The exact stepper's wall-contact springs and modes of the members (ExactWorkspace::history, keyed
   // by particle id, sorted), cut from the World's list with the island: each trial carries its own
@@ -51,6 +53,7 @@ struct IslandPhysics {
   Separation separation = Separation::force_zero;
   bool walls_move = false;
   DashpotVelocity dashpot;
+  bool book_events = false;  // log ended contacts for collision spectra (the World books them)
 };
 
 /// The error control of one round.

@@ -53,8 +53,8 @@ World::World(const WorldConfig& config)
   candidate_skin_ = skin_;
   for (std::size_t w = 0; w < walls_.count(); ++w)
     use_wall_lists_ = use_wall_lists_ || (config_.broadphase.wall_lists && walls_.filtered(w));
-  const bool book_spectra = config_.collision_spectra && config_.integrator.control == Control::fixed &&
-                            config_.integrator.method == Method::verlet;
+  // The exact stepper keeps no per-contact books: spectra need velocity Verlet (either control).
+  const bool book_spectra = config_.collision_spectra && config_.integrator.method == Method::verlet;
   pairs_.parts = {materials_.any_friction(), materials_.any_rolling(), book_spectra};
   arena_->execute([&] { evaluate_forces(0, true); });
   // Energy already in the springs at the start was not dissipated: count it as work done on them.

@@ -109,7 +109,7 @@ class World {
   const WallContacts& wall_contacts() const { return wall_contacts_; }
   const RunCounters& counters() const { return counters_; }
   /// Collision energy spectra of the contacts ended so far; null unless config.collision_spectra and
-  /// the fixed control with velocity Verlet (the doubling and exact paths do not book contact events).
+  /// velocity Verlet (either control; the exact stepper keeps no per-contact books).
   const CollisionSpectra* collision_spectra() const { return spectra_.get(); }
   Real skin() const { return skin_; }
   bool has_rotation() const { return kernels_.uses_rotation; }

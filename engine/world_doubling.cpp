@@ -72,7 +72,7 @@ void World::init_doubling() {
   doubling_ = std::make_unique<DoublingWork>(exemplar);
   DoublingWork& d = *doubling_;
   d.physics = IslandPhysics{&materials_, kernels_, gravity_, config_.model.dimension, c.method,
-                            config_.model.separation, walls_move_, dashpot_velocity()};
+                            config_.model.separation, walls_move_, dashpot_velocity(), spectra_ != nullptr};
   for (auto& level : state_.level) level = static_cast<std::int8_t>(std::clamp(0, c.level_min, c.level_max));
   // Anticipation demotes an approaching particle down to a step of t_c / 8 for the stiffest contact
   // and the lightest pair (m* = m / 2), the most a contact may need to be resolved.
@@ -245,6 +245,7 @@ void gather_island(const Islands& islands, const std::vector<std::uint32_t>& loc
   }
   job.island.adjacency.wall_start.clear();
   job.island.ended_dissipation = job.island.exact_dissipated = job.island.wall_work = 0;
+  job.island.events.clear();
   job.island.exact_deepest = Worst{};
   job.island.unresolved = 0;
   std::vector<ExactHistoryRecord>& history = job.island.exact_history;
@@ -410,6 +411,7 @@ void World::finish_round() {
     if (d.job_of[k] < 0) continue;  // free flight
     const IslandJob& job = d.jobs[d.job_of[k]];
     ended_dissipation_ += job.island.ended_dissipation;
+    if (spectra_) spectra_->record(job.island.events);
     exact_dissipated_ += job.island.exact_dissipated;
     if (job.island.exact_deepest.value > deepest_seen_.value) {  // the first of equals, in island order
       deepest_seen_ = job.island.exact_deepest;

@@ -163,6 +163,57 @@ TEST(CollisionSpectra, ASingleImpactBooksItsEnergies) {
   EXPECT_NEAR(spectra.dissipated(), world.dissipated_energy(), 1e-12);
 }
 
+TEST(CollisionSpectra, StepDoublingBooksTheSameSingleImpact) {
+  // The impact above under step doubling: the island logs the contact when it ends in an accepted
+  // step, and the World books the log at the end of the round; rejected trials book nothing.
+  WorldConfig config;
+  config.contacts[0].normal_stiffness = 1e5;
+  config.contacts[0].normal_damping = {DampingKind::restitution, 0.6};
+  WallConfig floor;
+  floor.kind = WallKind::plane;
+  config.walls.push_back(floor);
+  ParticleConfig ball;
+  ball.position = Vec3(0, 0, 0.101);
+  ball.velocity = Vec3(0, 0, -1);
+  ball.radius = 0.1;
+  ball.mass = 1;
+  config.particles.push_back(ball);
+  config.integrator.control = Control::doubling;
+  config.integrator.dt = config.integrator.dt_base = 1e-3;
+  config.integrator.level_min = -12;
+  config.integrator.level_max = 0;
+  config.integrator.tolerance = 1e-4;
+  config.collision_spectra = true;
+  World world(config);
+  ASSERT_EQ(world.run_until(0.02), StepStatus::ok);
+  ASSERT_NE(world.collision_spectra(), nullptr);
+  const CollisionSpectra& spectra = *world.collision_spectra();
+  EXPECT_GT(world.counters().rejected_steps, 0u) << "the impact makes the island reject some trials";
+  ASSERT_EQ(spectra.events(CollisionSpectra::ball_wall), 1u);
+  EXPECT_EQ(spectra.events(CollisionSpectra::ball_ball), 0u);
+  EXPECT_NEAR(spectra.total(CollisionSpectra::ball_wall, CollisionSpectra::impact), 0.5, 1e-3);
+  EXPECT_NEAR(spectra.total(CollisionSpectra::ball_wall, CollisionSpectra::normal_dissipated), 0.5 * (1 - 0.36), 2e-3);
+  EXPECT_NEAR(spectra.dissipated(), world.dissipated_energy(), 1e-12);
+}
+
+TEST(Mill, StepDoublingBooksEveryContactEventOnce) {
+  // A charge under step doubling, with contacts made and broken in islands at many levels and
+  // rounds redone: the spectra (events booked from the islands' logs plus what open contacts have
+  // dissipated) hold the World's dissipated energy, which sums the contacts' own books separately.
+  const Scene scene =
+      load_scene_text(mill_scene(8, 0.75, "count = 30"), "mill.toml", ".", {"integrator.control=\"doubling\""});
+  World world(scene.world);
+  ASSERT_EQ(world.run_until(0.4), StepStatus::ok);
+  ASSERT_NE(world.collision_spectra(), nullptr);
+  const CollisionSpectra& spectra = *world.collision_spectra();
+  EXPECT_GT(spectra.events(CollisionSpectra::ball_ball), 100u);
+  EXPECT_GT(spectra.events(CollisionSpectra::ball_wall), 10u);
+  EXPECT_GT(world.counters().rejected_steps, 0u);
+  const Real lost = world.dissipated_energy();
+  ASSERT_GT(lost, 0);
+  EXPECT_NEAR(spectra_total(world), lost, 1e-9 * lost);
+}
+
 TEST(Mill, RunsUnderEveryControlAndStepper) {
   // The exact stepper handles friction for one particle only so far: its mill is frictionless.
   struct Case {

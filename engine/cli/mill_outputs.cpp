@@ -102,7 +102,7 @@ JsonObject MillOutputs::summary(const World& world) const {
 void MillOutputs::write_spectra(const World& world, const std::string& scene_file) const {
   const CollisionSpectra* spectra = world.collision_spectra();
   if (!spectra) {
-    if (!quiet_) std::printf("collision spectra: booked only under the fixed control with velocity Verlet\n");
+    if (!quiet_) std::printf("collision spectra: booked only with velocity Verlet\n");
     return;
   }
   spectra->write_csv(out_ / "spectra.csv", world.time());  // rates over the run from t = 0 (resumed too)
