@@ -43,6 +43,8 @@ class CollisionSpectra {
   std::uint64_t events(Kind kind) const { return events_[kind]; }
   /// Sum of one quantity over the booked events of one kind [J].
   double total(Kind kind, Quantity quantity) const;
+  /// Sum of one quantity over the booked events of one kind that fell in bin b [J].
+  double energy(Kind kind, Quantity quantity, int b) const { return histogram_[kind][quantity].energy[b]; }
 
   /// Lower edge of bin b [J].
   static double bin_low(int b);

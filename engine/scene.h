@@ -26,8 +26,10 @@ struct OutputSettings {
 };
 
 /// Metric names an `[accuracy]` section may list (scenes/README.md): `dem trade` measures these.
-inline constexpr std::array<const char*, 6> accuracy_metric_names = {"trajectory", "dissipated_energy", "bed_height",
-                                                                     "kinetic_energy", "wall_force", "power_draw"};
+inline constexpr std::array<const char*, 7> accuracy_metric_names = {"trajectory",     "dissipated_energy",
+                                                                     "bed_height",     "kinetic_energy",
+                                                                     "wall_force",     "power_draw",
+                                                                     "collision_spectrum"};
 
 /// What `dem trade` compares against its reference run; not physics (not in the physics hash).
 struct AccuracySettings {

@@ -9,7 +9,8 @@
 //  - the reference check: a reference that diverges exits 1; a reference that is not converged (head_on's
 //    damped contact onset makes Verlet first order) is reported; a converged one is marked so;
 //  - a reference loaded from the reference.csv of an earlier run gives the same errors;
-//  - observables get a noise floor from perturbed reference runs.
+//  - observables get a noise floor from perturbed reference runs;
+//  - a mill is measured by its power draw and collision spectrum under both controls.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -332,16 +333,34 @@ TEST(CliTrade, CallsThePlotScriptWhenMatplotlibIsThere) {
 
 }  // namespace
 
-TEST(CliTrade, AMillIsMeasuredByItsPowerDraw) {
+TEST(CliTrade, AMillIsMeasuredByItsPowerDrawAndCollisionSpectrumUnderBothControls) {
   TempDir dir;
-  // The small test mill over its start-up: moving walls make power_draw a default metric.
-  const Result r = trade("tests/scenes/mill_small.toml --fixed 2e-4 --until 0.15 --no-plot --out " + dir.path().string(), dir);
+  // The small test mill (120 discs) over its start-up and one revolution, at a fixed step and under
+  // step doubling: moving walls make power_draw a default metric, and a mill's collision spectra
+  // (booked under either control with Verlet) the collision_spectrum metric.
+  const Result r = trade("tests/scenes/mill_small.toml --fixed 2e-4 --tol 1e-2 --until 0.95 --no-plot --out " +
+                             dir.path().string(),
+                         dir);
   ASSERT_EQ(r.code, 0) << r.err;
   const Csv csv = read_csv(dir.path() / "trade.csv");
-  ASSERT_EQ(csv.rows.size(), 1u);
-  ASSERT_TRUE(csv.rows[0].count("power_draw_error")) << "columns: " << read_text(dir.path() / "trade.csv");
-  const double error = csv.number(0, "power_draw_error");
-  EXPECT_TRUE(std::isfinite(error));
-  EXPECT_GE(error, 0);
-  EXPECT_NE(read_text(dir.path() / "trade_metrics.txt").find("power_draw"), std::string::npos);
+  ASSERT_EQ(csv.rows.size(), 2u);
+  for (const char* column : {"power_draw_error", "collision_spectrum_error", "power_draw_noise", "collision_spectrum_noise"})
+    ASSERT_TRUE(csv.rows[0].count(column)) << column << " missing; columns: " << read_text(dir.path() / "trade.csv");
+  for (std::size_t row = 0; row < 2; ++row) {
+    SCOPED_TRACE(csv.rows[row].at("control"));
+    EXPECT_EQ(csv.rows[row].at("status"), "ok");
+    const double power = csv.number(row, "power_draw_error"), spectrum = csv.number(row, "collision_spectrum_error");
+    EXPECT_TRUE(std::isfinite(power));
+    EXPECT_GE(power, 0);
+    // A relative L1 distance: 0 for the same spectrum, 2 for disjoint ones.
+    EXPECT_TRUE(std::isfinite(spectrum));
+    EXPECT_GT(spectrum, 0) << "a different step books different events";
+    EXPECT_LT(spectrum, 2);
+  }
+  EXPECT_EQ(csv.rows[1].at("control"), "doubling");
+  // The perturbed references differ in their events too (the charge is chaotic): a noise floor.
+  EXPECT_GT(csv.number(0, "collision_spectrum_noise"), 0);
+  const std::string metrics = read_text(dir.path() / "trade_metrics.txt");
+  EXPECT_NE(metrics.find("power_draw"), std::string::npos);
+  EXPECT_NE(metrics.find("collision_spectrum"), std::string::npos);
 }

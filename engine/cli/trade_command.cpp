@@ -18,7 +18,8 @@
 // Metrics (chosen by the scene's [accuracy] section, else by its size): few-body scenes (<= 100
 // particles) compare trajectories (max and RMS deviation of positions and velocities over particles
 // and sample times); many-body scenes, whose trajectories are chaotic, compare observables at the end
-// time: dissipated energy, bed height, kinetic energy and the wall force. There, three reference runs
+// time: dissipated energy, bed height, kinetic energy and the wall force (and a mill's power draw and
+// collision energy spectrum; the spectrum is not stored in reference.csv). There, three reference runs
 // with perturbed initial states (velocities by 1e-9 relative, positions by 1e-12 m, counter-based
 // deterministic draws) give the noise floor: differences below it mean nothing.
 //
@@ -71,10 +72,19 @@ const char* const observable_meanings[observable_count] = {
     "sum over walls of the magnitude of the force of the particles on the wall; at the end time",
     "mean power of the moving walls on the particles since the start (a mill's drive power): wall work / time; at the end time"};
 
-/// The metric columns: the four trajectory columns and the observables, in this order when chosen.
+/// The collision energy spectrum (a mill's): compared as a whole at the end time.
+const char* const spectrum_name = "collision_spectrum";
+const char* const spectrum_meaning =
+    "relative L1 distance of the collision energy spectra: over ball-ball and ball-liner events, impact energy and "
+    "normal and tangential loss, and every bin, the sum of |E_run - E_ref| over the sum of E_ref (E: energy booked "
+    "in the bin by the events ended since the start); 0 is the same spectrum, 2 disjoint ones; at the end time";
+
+/// The metric columns: the four trajectory columns, the observables and the spectrum, in this order
+/// when chosen.
 struct Metrics {
   bool trajectory = false;
   bool observable[observable_count] = {false, false, false, false, false};
+  bool spectrum = false;
 
   std::vector<std::string> columns() const {
     std::vector<std::string> c;
@@ -82,9 +92,12 @@ struct Metrics {
       for (const char* name : {"position_max", "position_rms", "velocity_max", "velocity_rms"}) c.push_back(name);
     for (int o = 0; o < observable_count; ++o)
       if (observable[o]) c.push_back(observable_names[o]);
+    if (spectrum) c.push_back(spectrum_name);
     return c;
   }
-  bool any_observable() const { return std::any_of(std::begin(observable), std::end(observable), [](bool b) { return b; }); }
+  bool any_observable() const {
+    return spectrum || std::any_of(std::begin(observable), std::end(observable), [](bool b) { return b; });
+  }
 };
 
 Metrics choose_metrics(const Scene& scene) {
@@ -94,6 +107,7 @@ Metrics choose_metrics(const Scene& scene) {
       if (name == "trajectory") m.trajectory = true;
       for (int o = 0; o < observable_count; ++o)
         if (name == observable_names[o]) m.observable[o] = true;
+      if (name == spectrum_name) m.spectrum = true;
     }
     return m;
   }
@@ -107,6 +121,8 @@ Metrics choose_metrics(const Scene& scene) {
   m.observable[power_draw] = std::any_of(scene.world.walls.begin(), scene.world.walls.end(), [](const WallConfig& w) {
     return w.velocity.norm() > 0 || w.angular_velocity.norm() > 0;
   });
+  // A scene that books collision spectra (a mill) is measured by them too; only Verlet books them.
+  m.spectrum = scene.world.collision_spectra && scene.world.integrator.method == Method::verlet;
   return m;
 }
 
@@ -118,6 +134,7 @@ struct Sample {
   double time = 0;
   std::vector<Vec3> position, velocity;
   double observable[observable_count] = {nan, nan, nan, nan, nan};
+  std::vector<double> spectrum;  // energy per (kind, quantity, bin) [J]; empty: none booked or not read
 };
 
 struct RunResult {
@@ -162,7 +179,25 @@ Sample sample_of(const World& world, bool trajectory, const Vec3& up) {
   for (const WallLoad& load : world.wall_loads()) force += load.force.norm();
   s.observable[wall_force] = force;
   s.observable[power_draw] = s.time > 0 ? world.wall_work() / s.time : 0;
+  if (const CollisionSpectra* spectra = world.collision_spectra())
+    for (int kind = 0; kind < CollisionSpectra::kind_count; ++kind)
+      for (int q = 0; q < CollisionSpectra::quantity_count; ++q)
+        for (int b = 0; b < CollisionSpectra::bin_count; ++b)
+          s.spectrum.push_back(spectra->energy(static_cast<CollisionSpectra::Kind>(kind),
+                                               static_cast<CollisionSpectra::Quantity>(q), b));
   return s;
+}
+
+/// Relative L1 distance of two spectra (spectrum_meaning); NaN when either has none.
+double spectrum_distance(const std::vector<double>& run, const std::vector<double>& reference) {
+  if (run.empty() || run.size() != reference.size()) return nan;
+  double difference = 0, size = 0;
+  for (std::size_t b = 0; b < run.size(); ++b) {
+    difference += std::abs(run[b] - reference[b]);
+    size += std::abs(reference[b]);
+  }
+  if (size == 0) return difference == 0 ? 0 : inf;
+  return difference / size;
 }
 
 /// Counter-based draw in [-1, 1] from (seed, particle, component): splitmix64 of a mixed key.
@@ -259,6 +294,8 @@ std::vector<double> errors_of(const std::vector<Sample>& run, bool finished, con
     if (metrics.observable[o]) e.push_back(std::abs(run.back().observable[o] - reference.back().observable[o]));
   for (double& v : e)
     if (!std::isfinite(v)) v = inf;
+  // Not measured (a reference read from a file holds no spectrum): NaN, not infinite.
+  if (metrics.spectrum) e.push_back(spectrum_distance(run.back().spectrum, reference.back().spectrum));
   return e;
 }
 
@@ -278,6 +315,7 @@ std::vector<double> scales_of(const std::vector<Sample>& reference, const Metric
       for (const Sample& sample : reference) m = std::max(m, std::abs(sample.observable[o]));
       s.push_back(m);
     }
+  if (metrics.spectrum) s.push_back(1);  // a relative distance
   return s;
 }
 
@@ -516,6 +554,8 @@ int trade_command(const TradeOptions& options) {
     reference_source = options.reference;
     reference_runs = read_reference(options.reference, plan, scene.world.particles.size());
     say("  reference from %s (%zu runs)\n", options.reference.c_str(), reference_runs.size());
+    if (plan.metrics.spectrum)
+      say("  %s: not in a reference file, so not measured (nan); use --reference auto\n", spectrum_name);
   }
   const std::vector<Sample>& reference = reference_runs.at("reference");
 
@@ -620,6 +660,7 @@ int trade_command(const TradeOptions& options) {
                   (c[0] == 'p' ? "positions" : "velocities") + " from the reference over particles and sample times";
       for (int o = 0; o < observable_count; ++o)
         if (c == observable_names[o]) unit = observable_units[o], meaning = std::string("absolute error of the ") + observable_meanings[o];
+      if (c == spectrum_name) unit = "1", meaning = spectrum_meaning;
       s << c << ',' << unit << ',' << number(reference_error[j]) << ',' << number(noise[j]) << ',' << converged[j] << ','
         << meaning << '\n';
     }
