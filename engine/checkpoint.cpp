@@ -67,7 +67,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 9;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy
+constexpr std::uint32_t checkpoint_version = 10;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra
 
 class ByteWriter {
  public:

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,7 @@
 #include "engine/scene_loader.h"
 #include "engine/world.h"
 #include "tests/mill_scenes.h"
+#include "tests/thread_support.h"
 
 namespace dem {
 namespace {
@@ -196,22 +198,38 @@ TEST(CollisionSpectra, StepDoublingBooksTheSameSingleImpact) {
   EXPECT_NEAR(spectra.dissipated(), world.dissipated_energy(), 1e-12);
 }
 
-TEST(Mill, StepDoublingBooksEveryContactEventOnce) {
-  // A charge under step doubling, with contacts made and broken in islands at many levels and
-  // rounds redone: the spectra (events booked from the islands' logs plus what open contacts have
-  // dissipated) hold the World's dissipated energy, which sums the contacts' own books separately.
-  const Scene scene =
-      load_scene_text(mill_scene(8, 0.75, "count = 30"), "mill.toml", ".", {"integrator.control=\"doubling\""});
-  World world(scene.world);
-  ASSERT_EQ(world.run_until(0.4), StepStatus::ok);
-  ASSERT_NE(world.collision_spectra(), nullptr);
-  const CollisionSpectra& spectra = *world.collision_spectra();
+TEST(Mill, StepDoublingBooksEveryContactEventOnceForAnyThreadCount) {
+  // A charge under step doubling, with contacts made and broken in islands at many levels, trials
+  // rejected and rounds redone: the spectra (events booked from the islands' logs plus what open
+  // contacts have dissipated) hold the World's dissipated energy, which sums the contacts' own books
+  // separately; and the islands, which run in parallel, book the same spectra on 1 and 3 threads.
+  const test::AllowThreads allow_three(3);
+  auto run = [](int threads) {
+    const Scene scene = load_scene_text(mill_scene(8, 0.75, "count = 30"), "mill.toml", ".",
+                                        {"integrator.control=\"doubling\"", "run.threads=" + std::to_string(threads)});
+    auto world = std::make_unique<World>(scene.world);
+    EXPECT_EQ(world->run_until(0.4), StepStatus::ok);
+    return world;
+  };
+  const std::unique_ptr<World> world = run(1);
+  ASSERT_NE(world->collision_spectra(), nullptr);
+  const CollisionSpectra& spectra = *world->collision_spectra();
   EXPECT_GT(spectra.events(CollisionSpectra::ball_ball), 100u);
   EXPECT_GT(spectra.events(CollisionSpectra::ball_wall), 10u);
-  EXPECT_GT(world.counters().rejected_steps, 0u);
-  const Real lost = world.dissipated_energy();
+  EXPECT_GT(world->counters().rejected_steps, 0u);
+  EXPECT_GT(world->counters().round_redos, 0u);
+  const Real lost = world->dissipated_energy();
   ASSERT_GT(lost, 0);
-  EXPECT_NEAR(spectra_total(world), lost, 1e-9 * lost);
+  EXPECT_NEAR(spectra_total(*world), lost, 1e-9 * lost);
+  const std::unique_ptr<World> three = run(3);
+  ASSERT_EQ(three->thread_count(), 3);
+  EXPECT_EQ(three->state_hash(), world->state_hash());
+  const CollisionSpectra& other = *three->collision_spectra();
+  for (auto kind : {CollisionSpectra::ball_ball, CollisionSpectra::ball_wall}) {
+    EXPECT_EQ(other.events(kind), spectra.events(kind));
+    for (auto q : {CollisionSpectra::impact, CollisionSpectra::normal_dissipated, CollisionSpectra::tangential_dissipated})
+      for (int b = 0; b < CollisionSpectra::bin_count; ++b) EXPECT_EQ(other.energy(kind, q, b), spectra.energy(kind, q, b));
+  }
 }
 
 TEST(Mill, RunsUnderEveryControlAndStepper) {

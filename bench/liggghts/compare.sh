@@ -26,12 +26,14 @@ for round in $(seq "$rounds"); do
   # times; no snapshot in between (snapshot_interval beyond the run).
   build/engine/dem run scenes/dense_bed.toml --threads 2 --until "$until" --quiet --out "$work/dem" \
     --set output.snapshot_interval=1 --set output.interval=1
-  ours=$(python3 -c "import json; print(json.load(open('$work/dem/summary.json'))['wall_time'])")
-  python3 - "$steps" "$loop" "$ours" "$round" <<'PY'
+  python3 - "$steps" "$loop" "$work/dem/summary.json" "$round" <<'PY'
+import json
 import sys
-steps, loop, ours, round_ = int(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3]), sys.argv[4]
+steps, loop, summary, round_ = int(sys.argv[1]), float(sys.argv[2]), json.load(open(sys.argv[3])), sys.argv[4]
 n = 20000
-print(f"round {round_}: {steps} steps of 20,000 spheres on 2 cores: LIGGGHTS {n * steps / loop / 1e6:.2f} M particle-steps/s "
-      f"({loop:.2f} s), dem {n * steps / ours / 1e6:.2f} M ({ours:.2f} s): dem / LIGGGHTS = {loop / ours:.2f}")
+ours, our_steps = summary["wall_time"], summary["counters"]["sync_intervals"]  # a run ends at the first step at or after --until
+liggghts_rate, dem_rate = n * steps / loop, n * our_steps / ours
+print(f"round {round_}: 20,000 spheres on 2 cores: LIGGGHTS {liggghts_rate / 1e6:.2f} M particle-steps/s ({steps} steps, "
+      f"{loop:.2f} s), dem {dem_rate / 1e6:.2f} M ({our_steps} steps, {ours:.2f} s): dem / LIGGGHTS = {dem_rate / liggghts_rate:.2f}")
 PY
 done

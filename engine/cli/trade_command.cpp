@@ -19,7 +19,8 @@
 // particles) compare trajectories (max and RMS deviation of positions and velocities over particles
 // and sample times); many-body scenes, whose trajectories are chaotic, compare observables at the end
 // time: dissipated energy, bed height, kinetic energy and the wall force (and a mill's power draw and
-// collision energy spectrum; the spectrum is not stored in reference.csv). There, three reference runs
+// collision energy spectrum; the spectrum is not stored in reference.csv, so it is measured only
+// against a reference made in the same run). There, three reference runs
 // with perturbed initial states (velocities by 1e-9 relative, positions by 1e-12 m, counter-based
 // deterministic draws) give the noise floor: differences below it mean nothing.
 //
@@ -75,9 +76,9 @@ const char* const observable_meanings[observable_count] = {
 /// The collision energy spectrum (a mill's): compared as a whole at the end time.
 const char* const spectrum_name = "collision_spectrum";
 const char* const spectrum_meaning =
-    "relative L1 distance of the collision energy spectra: over ball-ball and ball-liner events, impact energy and "
-    "normal and tangential loss, and every bin, the sum of |E_run - E_ref| over the sum of E_ref (E: energy booked "
-    "in the bin by the events ended since the start); 0 is the same spectrum, 2 disjoint ones; at the end time";
+    "distance of the collision energy spectra: over ball-ball and ball-liner events, impact energy and normal and "
+    "tangential loss, and every bin, the sum of |E_run - E_ref| over the sum of E_run + E_ref (E: energy booked in "
+    "the bin by the events ended since the start); 0 for the same spectrum, 1 for disjoint ones; at the end time";
 
 /// The metric columns: the four trajectory columns, the observables and the spectrum, in this order
 /// when chosen.
@@ -188,16 +189,15 @@ Sample sample_of(const World& world, bool trajectory, const Vec3& up) {
   return s;
 }
 
-/// Relative L1 distance of two spectra (spectrum_meaning); NaN when either has none.
+/// Distance of two spectra in [0, 1] (spectrum_meaning); NaN when either has none.
 double spectrum_distance(const std::vector<double>& run, const std::vector<double>& reference) {
   if (run.empty() || run.size() != reference.size()) return nan;
   double difference = 0, size = 0;
   for (std::size_t b = 0; b < run.size(); ++b) {
     difference += std::abs(run[b] - reference[b]);
-    size += std::abs(reference[b]);
+    size += std::abs(run[b]) + std::abs(reference[b]);
   }
-  if (size == 0) return difference == 0 ? 0 : inf;
-  return difference / size;
+  return size > 0 ? difference / size : 0;
 }
 
 /// Counter-based draw in [-1, 1] from (seed, particle, component): splitmix64 of a mixed key.
@@ -294,8 +294,10 @@ std::vector<double> errors_of(const std::vector<Sample>& run, bool finished, con
     if (metrics.observable[o]) e.push_back(std::abs(run.back().observable[o] - reference.back().observable[o]));
   for (double& v : e)
     if (!std::isfinite(v)) v = inf;
-  // Not measured (a reference read from a file holds no spectrum): NaN, not infinite.
-  if (metrics.spectrum) e.push_back(spectrum_distance(run.back().spectrum, reference.back().spectrum));
+  if (metrics.spectrum) {
+    const double d = spectrum_distance(run.back().spectrum, reference.back().spectrum);
+    e.push_back(std::isfinite(d) ? d : inf);
+  }
   return e;
 }
 
@@ -481,6 +483,16 @@ int trade_command(const TradeOptions& options) {
   if (options.threads >= 0) scene.world.threads = options.threads;
   if (options.until > 0) scene.run.until = options.until;
   const std::string method = scene.world.integrator.method == Method::verlet ? "verlet" : "exact";
+  const bool spectrum_asked = std::find(scene.accuracy.metrics.begin(), scene.accuracy.metrics.end(),
+                                        spectrum_name) != scene.accuracy.metrics.end();
+  if (spectrum_asked && !(scene.world.collision_spectra && scene.world.integrator.method == Method::verlet))
+    throw InputError(scene.file, 0, 0, "accuracy.metrics",
+                     "collision_spectrum needs a scene that books collision spectra: a [mill] run with "
+                     "integrator.method = \"verlet\"");
+  const bool reference_from_file = !options.reference.empty() && options.reference != "auto";
+  if (spectrum_asked && reference_from_file)
+    throw InputError("--reference", 0, 0, "", "collision_spectrum is not stored in a reference file: use --reference auto "
+                                             "or leave collision_spectrum out of accuracy.metrics");
   const fs::path out = options.out.empty() ? fs::path("out") / scene.name / "trade" : fs::path(options.out);
   fs::create_directories(out);
 
@@ -502,6 +514,7 @@ int trade_command(const TradeOptions& options) {
   }
   plan.count = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(scene.run.until / plan.interval - 1e-9)));
   plan.metrics = choose_metrics(scene);
+  if (reference_from_file) plan.metrics.spectrum = false;  // a default only here: the file holds no spectrum
   plan.up = up_direction(scene.world);
   const std::vector<std::string> columns = plan.metrics.columns();
   const double end_time = static_cast<double>(plan.count) * plan.interval;
@@ -554,8 +567,6 @@ int trade_command(const TradeOptions& options) {
     reference_source = options.reference;
     reference_runs = read_reference(options.reference, plan, scene.world.particles.size());
     say("  reference from %s (%zu runs)\n", options.reference.c_str(), reference_runs.size());
-    if (plan.metrics.spectrum)
-      say("  %s: not in a reference file, so not measured (nan); use --reference auto\n", spectrum_name);
   }
   const std::vector<Sample>& reference = reference_runs.at("reference");
 
