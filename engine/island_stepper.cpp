@@ -14,11 +14,12 @@ void evaluate_forces(IslandState& s, const broadphase::CandidatePairs& candidate
                      IslandScratch& scratch, Real h) {
   State& st = s.state;
   // Contacts that end are logged while the old list is still whole (as World::evaluate_forces books them).
-  const EndedPairsHook log_ended = [&s](const PairContacts& before, const std::vector<std::uint64_t>& after_key) {
-    s.events.record_ended(before, after_key);
-  };
-  s.ended_dissipation += update_pair_contacts(st, candidates, *physics.materials, s.pairs, scratch.contacts,
-                                              physics.book_events ? log_ended : EndedPairsHook{});
+  EndedPairsHook log_ended;
+  if (physics.book_events)
+    log_ended = [&s](const PairContacts& before, const std::vector<std::uint64_t>& after_key) {
+      s.events.record_ended(before, after_key);
+    };
+  s.ended_dissipation += update_pair_contacts(st, candidates, *physics.materials, s.pairs, scratch.contacts, log_ended);
   build_pair_adjacency(st.size(), s.pairs, s.adjacency);
   s.ended_dissipation +=
       update_wall_contacts(st, scratch.walls, *physics.materials, s.walls, scratch.contacts, s.adjacency.wall_start);

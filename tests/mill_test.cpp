@@ -136,9 +136,8 @@ TEST(Mill, DriveWorkBalancesDissipationAndEnergyChange) {
   EXPECT_GT(run.world->collision_spectra()->events(CollisionSpectra::ball_ball), events0 + 100);
 }
 
-TEST(CollisionSpectra, ASingleImpactBooksItsEnergies) {
-  // A 1 kg ball hits a plane head-on at 1 m/s without gravity: one ball-liner event whose impact
-  // energy is m v^2 / 2 = 0.5 J, whose normal loss is (1 - e^2) of it, and no tangential loss.
+/// A 1 kg ball hits a plane head-on at 1 m/s without gravity (e = 0.6), spectra booked, fixed dt 1e-6 s.
+WorldConfig single_impact() {
   WorldConfig config;
   config.contacts[0].normal_stiffness = 1e5;
   config.contacts[0].normal_damping = {DampingKind::restitution, 0.6};
@@ -154,7 +153,13 @@ TEST(CollisionSpectra, ASingleImpactBooksItsEnergies) {
   config.particles.push_back(ball);
   config.integrator.dt = 1e-6;
   config.collision_spectra = true;
-  World world(config);
+  return config;
+}
+
+TEST(CollisionSpectra, ASingleImpactBooksItsEnergies) {
+  // One ball-liner event whose impact energy is m v^2 / 2 = 0.5 J, whose normal loss is (1 - e^2) of
+  // it, and no tangential loss.
+  World world(single_impact());
   ASSERT_EQ(world.run_until(0.02), StepStatus::ok);
   const CollisionSpectra& spectra = *world.collision_spectra();
   ASSERT_EQ(spectra.events(CollisionSpectra::ball_wall), 1u);
@@ -168,24 +173,12 @@ TEST(CollisionSpectra, ASingleImpactBooksItsEnergies) {
 TEST(CollisionSpectra, StepDoublingBooksTheSameSingleImpact) {
   // The impact above under step doubling: the island logs the contact when it ends in an accepted
   // step, and the World books the log at the end of the round; rejected trials book nothing.
-  WorldConfig config;
-  config.contacts[0].normal_stiffness = 1e5;
-  config.contacts[0].normal_damping = {DampingKind::restitution, 0.6};
-  WallConfig floor;
-  floor.kind = WallKind::plane;
-  config.walls.push_back(floor);
-  ParticleConfig ball;
-  ball.position = Vec3(0, 0, 0.101);
-  ball.velocity = Vec3(0, 0, -1);
-  ball.radius = 0.1;
-  ball.mass = 1;
-  config.particles.push_back(ball);
+  WorldConfig config = single_impact();
   config.integrator.control = Control::doubling;
   config.integrator.dt = config.integrator.dt_base = 1e-3;
   config.integrator.level_min = -12;
   config.integrator.level_max = 0;
   config.integrator.tolerance = 1e-4;
-  config.collision_spectra = true;
   World world(config);
   ASSERT_EQ(world.run_until(0.02), StepStatus::ok);
   ASSERT_NE(world.collision_spectra(), nullptr);
