@@ -1,10 +1,16 @@
 #!/bin/sh
 # Installs the built project into a temporary prefix, then builds two outside projects against it
 # with find_package(dem): tests/install_consumer (run on the seed slope, output checked) and
-# examples/ standalone (built and started). Usage: install_test.sh <build dir> <source dir>
+# examples/ standalone (built and started), configured with the parent build's generator, make
+# program and C++ compiler so that nothing beyond what built the project is needed.
+# Usage: install_test.sh <build dir> <source dir> <generator> <make program> <c++ compiler>
 set -eu
+[ $# -eq 5 ] || { echo "usage: install_test.sh <build dir> <source dir> <generator> <make program> <c++ compiler>" >&2; exit 2; }
 build=$1
 src=$2
+generator=$3
+make_program=$4
+cxx=$5
 work=$(mktemp -d "${TMPDIR:-/tmp}/dem_install_test.XXXXXX")
 trap 'rm -rf "$work"' EXIT
 prefix=$work/prefix
@@ -21,9 +27,11 @@ done
 [ ! -e "$prefix/include/engine/cli" ] || fail "the CLI's headers are private"
 
 configure_and_build() {  # <source> <binary>
-  cmake -S "$1" -B "$2" -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release > "$2.log" 2>&1 ||
+  cmake -S "$1" -B "$2" -G "$generator" -DCMAKE_MAKE_PROGRAM="$make_program" -DCMAKE_CXX_COMPILER="$cxx" \
+    -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_BUILD_TYPE=Release > "$2.log" 2>&1 ||
     { cat "$2.log"; fail "configuring $1 failed"; }
   grep -q "^dem_DIR:PATH=$prefix/" "$2/CMakeCache.txt" || fail "$1 did not find the installed package"
+  grep -qx "CMAKE_GENERATOR:INTERNAL=$generator" "$2/CMakeCache.txt" || fail "$1 was not configured with $generator"
   cmake --build "$2" > "$2.build.log" 2>&1 || { cat "$2.build.log"; fail "building $1 failed"; }
   ! grep -rq -e "-I$src" "$2/CMakeFiles" || fail "$1 compiled against the source tree"
 }
