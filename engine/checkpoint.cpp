@@ -175,7 +175,7 @@ std::string World::checkpoint_bytes(std::uint64_t scene_hash) const {
     w.put(e);
   auto io = [&](auto& v) { w.put(v); };
   state_fields(io, state_);
-  pair_fields(io, pairs_);
+  pair_fields(io, pair_contacts());
   wall_fields(io, wall_contacts_);
   w.put(candidates_.row_start);
   w.put(candidates_.partner);
@@ -251,6 +251,8 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   start_energies_ = start;
   state_ = std::move(state);
   pairs_ = std::move(pairs);
+  pairs_stale_ = false;
+  pair_contacts_changed();
   wall_contacts_ = std::move(walls);
   candidates_ = std::move(candidates);
   skin_tracker_.reset(reference);

@@ -53,13 +53,6 @@ void copy_wall(const WallContacts& a, std::size_t from, WallContacts& b, std::si
 
 namespace {
 
-/// Two immovable particles (inverse mass 0 both) have no finite effective mass: never a contact.
-bool overlapping(const State& s, ParticleIndex a, ParticleIndex b) {
-  if (s.inv_mass[a] == 0 && s.inv_mass[b] == 0) return false;
-  const Real reach = s.radius[a] + s.radius[b];
-  return (s.position[a] - s.position[b]).squaredNorm() < reach * reach;
-}
-
 /// The work of the step on which a contact parted, booked now that it has left the list. Velocity
 /// Verlet still applies the contact's last force over that step, as it applied the first one over
 /// the step on which the contact formed. Both are booked for the normal spring from delta = 0
@@ -84,12 +77,7 @@ Real end_pair_contact(const State& s, const broadphase::CandidatePairs& candidat
     const ParticleIndex b = candidates.partner[q];
     if (s.id[b] != partner) continue;
     const ParticleIndex i = s.id[a] == lo ? a : b, j = s.id[a] == lo ? b : a;  // the force is on i
-    const PairNormal g = pair_normal(s, i, j);
-    const Real k_n = materials.params(materials.pair_class(s.material[i], s.material[j])).k_n;
-    const Real release = release_work(c.force[k].dot(g.n), k_n, s.radius[i] + s.radius[j] - g.distance, c.overlap[k]);
-    c.work[k] += release;
-    if (c.parts.books) c.books[k].normal_work += release;
-    break;
+    return release_pair_contact(s, materials, i, j, c, k);
   }
   return c.work[k] - c.elastic[k];
 }
@@ -117,6 +105,24 @@ std::ptrdiff_t find_key(const std::vector<std::uint64_t>& keys, std::uint64_t ke
 }
 
 }  // namespace
+
+Real release_pair_contact(const State& s, const MaterialTable& materials, ParticleIndex i, ParticleIndex j,
+                          PairContacts& c, std::size_t k) {
+  const PairNormal g = pair_normal(s, i, j);
+  const Real k_n = materials.params(materials.pair_class(s.material[i], s.material[j])).k_n;
+  const Real release = release_work(c.force[k].dot(g.n), k_n, s.radius[i] + s.radius[j] - g.distance, c.overlap[k]);
+  c.work[k] += release;
+  if (c.parts.books) c.books[k].normal_work += release;
+  return c.work[k] - c.elastic[k];
+}
+
+void reset_pair_contact(PairContacts& c, std::size_t k) {
+  c.set_history(k, ContactHistory{});
+  c.work[k] = 0;
+  c.elastic[k] = 0;
+  c.overlap[k] = 0;
+  c.force[k].setZero();
+}
 
 Real live_dissipation(const std::vector<Real>& work, const std::vector<Real>& elastic) {
   return block_sum<Real>(work.size(), [&](std::size_t k) { return work[k] - elastic[k]; });
@@ -157,12 +163,7 @@ void move_carried(PairContacts& c, const std::vector<std::uint32_t>& source, Pai
     k1 = k0;
   }
   parallel_for(m, [&](std::size_t k) {
-    if (source[k] != no_source) return;
-    c.set_history(k, ContactHistory{});
-    c.work[k] = 0;
-    c.elastic[k] = 0;
-    c.overlap[k] = 0;
-    c.force[k].setZero();
+    if (source[k] == no_source) reset_pair_contact(c, k);
   });
 }
 
@@ -176,7 +177,7 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
   parallel_for(n, [&](std::size_t a) {
     std::uint32_t c = 0;
     for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k)
-      c += overlapping(s, static_cast<ParticleIndex>(a), candidates.partner[k]) ? 1 : 0;
+      c += pair_touches(s, static_cast<ParticleIndex>(a), candidates.partner[k]) ? 1 : 0;
     work.count[a] = c;
   });
   exclusive_scan(work.count, work.offset);
@@ -188,7 +189,7 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
     std::uint32_t slot = row_start[a];
     for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
       const ParticleIndex b = candidates.partner[k];
-      if (!overlapping(s, static_cast<ParticleIndex>(a), b)) continue;
+      if (!pair_touches(s, static_cast<ParticleIndex>(a), b)) continue;
       // Slots follow ids; with slots in id order a row of ascending partners is ascending in key.
       const bool a_first = s.id[a] < s.id[b];
       contacts.i[slot] = a_first ? static_cast<ParticleIndex>(a) : b;

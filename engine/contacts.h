@@ -27,6 +27,7 @@ struct ContactParts {
   bool friction = true;  // tangential spring
   bool rolling = true;   // rolling spring and rolling torque
   bool books = true;     // the normal spring's energy books, for collision spectra
+  bool keyed = true;     // key and i per contact (a persistent list knows i from its row, and no key)
 };
 
 /// The energy books of ContactHistory (PHYSICS.md 7), stored apart: only collision spectra read them.
@@ -57,7 +58,7 @@ struct PairContacts {
   // row_start[a] .. row_start[a+1], ascending in key: history is inherited row by row.
   std::vector<std::uint32_t> row_start;
 
-  std::size_t size() const { return key.size(); }
+  std::size_t size() const { return j.size(); }  // j: the one index every list holds
   void resize(std::size_t n);
   /// Recomputes row_start from i and j (after a checkpoint is loaded).
   void index_rows(std::size_t particle_count);
@@ -78,13 +79,14 @@ struct PairContacts {
   /// The same for every per-contact array it holds (row_start is per row).
   template <class F>
   static void for_each_array(const ContactParts& parts, F&& f) {
-    f(&PairContacts::key), f(&PairContacts::i), f(&PairContacts::j);
+    if (parts.keyed) f(&PairContacts::key), f(&PairContacts::i);
+    f(&PairContacts::j);
     for_each_carried(parts, f);
     if (parts.rolling) f(&PairContacts::rolling_torque);
   }
 };
 
-/// Copies every field of contact `from` of `a` into slot `to` of `b` (lists with the same parts).
+/// Copies every field list `a` holds of contact `from` into slot `to` of `b` (which holds at least those).
 void copy_pair(const PairContacts& a, std::size_t from, PairContacts& b, std::size_t to);
 
 struct WallContacts {
@@ -128,6 +130,22 @@ inline PairNormal pair_normal(const State& s, ParticleIndex i, ParticleIndex j) 
   const Real dist = d.norm();
   return {dist > 0 ? Vec3(d / dist) : Vec3(Vec3::UnitX()), dist};
 }
+
+/// True when particles a and b overlap and so make a contact. Two immovable particles (inverse mass 0
+/// both) have no finite effective mass: never a contact.
+inline bool pair_touches(const State& s, ParticleIndex a, ParticleIndex b) {
+  if (s.inv_mass[a] == 0 && s.inv_mass[b] == 0) return false;
+  const Real reach = s.radius[a] + s.radius[b];
+  return (s.position[a] - s.position[b]).squaredNorm() < reach * reach;
+}
+
+/// Books the step on which pair contact k (slots i, j: the force is on i) parted, from the positions
+/// now, and returns what the contact dissipated over its life: its work minus what its springs held [J].
+Real release_pair_contact(const State& state, const MaterialTable& materials, ParticleIndex i, ParticleIndex j,
+                          PairContacts& contacts, std::size_t k);
+
+/// Sets contact k's history, books, overlap and force to a new contact's start values.
+void reset_pair_contact(PairContacts& contacts, std::size_t k);
 
 /// Per-particle lists of contact slots for the gather, in ascending partner order:
 /// pair entries encode (contact << 1) | side, side 1 meaning the particle is j.

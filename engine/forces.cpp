@@ -104,45 +104,90 @@ void set_rates(ContactKinematics& kin, const SurfaceMotion& half_step, const Sur
   kin.dashpot_rolling_velocity = damped->rolling;
 }
 
+/// Evaluates pair contact k of `c` (between particles i and j) and writes its slots: force, rolling torque, history,
+/// overlap and books. Returns the unit normal from j to i.
+template <class Law>
+Vec3 evaluate_pair(const State& s, const MaterialTable& materials, PairContacts& c, std::size_t k, ParticleIndex i,
+                   ParticleIndex j, Real h, const DashpotVelocity& d, bool books) {
+  const auto [n, dist] = pair_normal(s, i, j);
+  const Real overlap = s.radius[i] + s.radius[j] - dist;
+  const Real arm_i = s.radius[i] - 0.5 * overlap, arm_j = s.radius[j] - 0.5 * overlap;  // as gather_forces
+  constexpr bool rotation = Law::uses_rotation;
+  const SurfaceMotion half_step = pair_surface<rotation>(motion_of(s, i), motion_of(s, j), arm_i, arm_j, n);
+  ContactKinematics kin;
+  kin.normal = n;
+  kin.overlap = overlap;
+  kin.previous_force = c.force[k];
+  if (d.predicted) {
+    const SurfaceMotion damped =
+        pair_surface<rotation>(predicted_motion(s, i, h, d), predicted_motion(s, j, h, d), arm_i, arm_j, n);
+    set_rates(kin, half_step, &damped);
+  } else {
+    set_rates(kin, half_step, nullptr);
+  }
+  kin.onset = c.overlap[k] == 0;  // a new contact: no evaluation has stored its overlap yet
+  ContactHistory history = load_history<Law>(c, k, books);
+  const Real inv_m = s.inv_mass[i] + s.inv_mass[j];  // two fixed particles: no impact energy
+  if (books && history.impact_energy < 0)
+    history.impact_energy = inv_m > 0 ? 0.5 * kin.overlap_rate * kin.overlap_rate / inv_m : 0;
+  const LawConstants constants = materials.law_constants<Law::friction, Law::rolling>(
+      materials.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i], s.radius[i], s.inv_mass[j],
+      s.inv_inertia[j], s.radius[j]);
+  const ContactResponse r = Law::evaluate(constants, kin, history, h);
+  history.normal_work += h * r.normal_power;
+  history.normal_elastic = r.normal_elastic;
+  store_history<Law>(c, k, books, history);
+  c.overlap[k] = overlap;
+  c.work[k] += h * r.power;
+  c.elastic[k] = r.elastic;
+  c.force[k] = r.force;
+  if constexpr (Law::rolling) c.rolling_torque[k] = r.rolling_torque;
+  return n;
+}
+
 template <class Law>
 void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c, Real h, const DashpotVelocity& d) {
   DEM_ASSERT(c.parts.friction == Law::friction && c.parts.rolling == Law::rolling);
   const bool books = c.parts.books;
-  parallel_for(c.size(), [&](std::size_t k) {
-    const ParticleIndex i = c.i[k], j = c.j[k];
-    const auto [n, dist] = pair_normal(s, i, j);
-    const Real overlap = s.radius[i] + s.radius[j] - dist;
-    const Real arm_i = s.radius[i] - 0.5 * overlap, arm_j = s.radius[j] - 0.5 * overlap;  // as gather_forces
-    constexpr bool rotation = Law::uses_rotation;
-    const SurfaceMotion half_step = pair_surface<rotation>(motion_of(s, i), motion_of(s, j), arm_i, arm_j, n);
-    ContactKinematics kin;
-    kin.normal = n;
-    kin.overlap = overlap;
-    kin.previous_force = c.force[k];
-    if (d.predicted) {
-      const SurfaceMotion damped =
-          pair_surface<rotation>(predicted_motion(s, i, h, d), predicted_motion(s, j, h, d), arm_i, arm_j, n);
-      set_rates(kin, half_step, &damped);
-    } else {
-      set_rates(kin, half_step, nullptr);
+  parallel_for(c.size(), [&](std::size_t k) { evaluate_pair<Law>(s, materials, c, k, c.i[k], c.j[k], h, d, books); });
+}
+
+/// Row by row over the persistent list: a slot whose pair overlaps is evaluated (a contact that
+/// starts has start values, so this is its onset); one that touched and no longer overlaps has its
+/// release step booked and is marked ended for finish_ended_contacts, which books and resets it.
+template <class Law>
+void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourContacts& nb, Real h,
+                      const DashpotVelocity& d) {
+  PairContacts& c = nb.list;
+  DEM_ASSERT(c.parts.friction == Law::friction && c.parts.rolling == Law::rolling);
+  const bool books = c.parts.books;
+  parallel_for(c.row_start.size() - 1, [&](std::size_t a) {
+    Real ended = 0;
+    std::uint8_t any_ended = 0;
+    Real deepest = 0;
+    std::uint32_t deepest_slot = no_deepest_slot;
+    for (std::uint32_t k = c.row_start[a]; k < c.row_start[a + 1]; ++k) {
+      const ParticleIndex i = static_cast<ParticleIndex>(a), j = c.j[k];
+      if (pair_touches(s, i, j)) {
+        const Vec3 n = evaluate_pair<Law>(s, materials, c, k, i, j, h, d, books);
+        if constexpr (Law::uses_rotation) nb.moment[k] = n.cross(c.force[k]);
+        nb.touching[k] = touching_yes;
+        // As deepest_contact computes it; the first of equal ratios, a NaN before any number.
+        const Real ratio = c.overlap[k] / std::min(s.radius[i], s.radius[j]);
+        if (deepest_slot == no_deepest_slot || (!std::isnan(deepest) && (std::isnan(ratio) || ratio > deepest))) {
+          deepest = ratio;
+          deepest_slot = k;
+        }
+      } else if (nb.touching[k] == touching_yes) {
+        ended += release_pair_contact(s, materials, i, j, c, k);
+        nb.touching[k] = touching_ended;
+        any_ended = 1;
+      }
     }
-    kin.onset = c.overlap[k] == 0;  // a new contact: no evaluation has stored its overlap yet
-    ContactHistory history = load_history<Law>(c, k, books);
-    const Real inv_m = s.inv_mass[i] + s.inv_mass[j];  // two fixed particles: no impact energy
-    if (books && history.impact_energy < 0)
-      history.impact_energy = inv_m > 0 ? 0.5 * kin.overlap_rate * kin.overlap_rate / inv_m : 0;
-    const LawConstants constants = materials.law_constants<Law::friction, Law::rolling>(
-        materials.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i], s.radius[i], s.inv_mass[j],
-        s.inv_inertia[j], s.radius[j]);
-    const ContactResponse r = Law::evaluate(constants, kin, history, h);
-    history.normal_work += h * r.normal_power;
-    history.normal_elastic = r.normal_elastic;
-    store_history<Law>(c, k, books, history);
-    c.overlap[k] = overlap;
-    c.work[k] += h * r.power;
-    c.elastic[k] = r.elastic;
-    c.force[k] = r.force;
-    if constexpr (Law::rolling) c.rolling_torque[k] = r.rolling_torque;
+    nb.row_ended[a] = ended;
+    nb.row_has_ended[a] = any_ended;
+    nb.row_deepest[a] = deepest;
+    nb.row_deepest_slot[a] = deepest_slot;
   });
 }
 
@@ -205,7 +250,7 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
 
 template <class Law>
 ForceKernels kernels_for() {
-  return ForceKernels{&pair_forces<Law>, &wall_forces<Law>, Law::uses_rotation};
+  return ForceKernels{&pair_forces<Law>, &neighbour_forces<Law>, &wall_forces<Law>, Law::uses_rotation};
 }
 
 template <Separation Sep, bool Friction>
@@ -266,6 +311,70 @@ void gather_forces(State& s, const PairContacts& pairs, const WallContacts& wall
     s.force[p] = f;
     s.torque[p] = t;
   });
+}
+
+namespace {
+
+template <bool Rotation, bool Rolling, bool Disc>
+void gather_neighbours(State& s, const NeighbourContacts& nb, const WallContacts& walls,
+                       const std::vector<std::uint32_t>& wall_start) {
+  const PairContacts& c = nb.list;
+  parallel_for(s.size(), [&](std::size_t p) {
+    Vec3 f = Vec3::Zero(), t = Vec3::Zero();
+    const Real r = s.radius[p];
+    // Partners with smaller ids first (p is j of those slots), then the row's own (p is i): ascending
+    // partner order, as gather_forces sums a compact list.
+    for (std::uint32_t e = nb.reverse_start[p]; e < nb.reverse_start[p + 1]; ++e) {
+      const std::uint32_t k = nb.reverse_slot[e];
+      f -= c.force[k];
+      if constexpr (Rotation) {
+        Vec3 torque = -(r - 0.5 * c.overlap[k]) * nb.moment[k];
+        if constexpr (Rolling) torque += -c.rolling_torque[k];
+        t += torque;
+      }
+    }
+    for (std::uint32_t k = c.row_start[p]; k < c.row_start[p + 1]; ++k) {
+      f += c.force[k];
+      if constexpr (Rotation) {
+        Vec3 torque = -(r - 0.5 * c.overlap[k]) * nb.moment[k];
+        if constexpr (Rolling) torque += c.rolling_torque[k];
+        t += torque;
+      }
+    }
+    for (std::uint32_t k = wall_start[p]; k < wall_start[p + 1]; ++k) {
+      f += walls.force[k];
+      if constexpr (Rotation) t += walls.torque[k];
+    }
+    if constexpr (Disc) {
+      f.z() = 0;
+      t.x() = 0;
+      t.y() = 0;
+    }
+    s.force[p] = f;
+    s.torque[p] = t;
+  });
+}
+
+template <bool Rotation, bool Rolling>
+void gather_neighbours_in(State& s, const NeighbourContacts& nb, const WallContacts& walls,
+                          const std::vector<std::uint32_t>& wall_start, int dimension) {
+  if (dimension == 2)
+    gather_neighbours<Rotation, Rolling, true>(s, nb, walls, wall_start);
+  else
+    gather_neighbours<Rotation, Rolling, false>(s, nb, walls, wall_start);
+}
+
+}  // namespace
+
+void gather_neighbour_forces(State& s, const NeighbourContacts& nb, const WallContacts& walls,
+                             const std::vector<std::uint32_t>& wall_start, bool rotation, int dimension) {
+  const bool rolling = nb.list.parts.rolling;
+  if (!rotation)
+    gather_neighbours_in<false, false>(s, nb, walls, wall_start, dimension);
+  else if (rolling)
+    gather_neighbours_in<true, true>(s, nb, walls, wall_start, dimension);
+  else
+    gather_neighbours_in<true, false>(s, nb, walls, wall_start, dimension);
 }
 
 Real wall_power(const Walls& walls, const WallContacts& c) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "engine/contacts.h"
+#include "engine/neighbour_contacts.h"
 #include "engine/walls.h"
 
 namespace dem {
@@ -29,6 +30,9 @@ struct DashpotVelocity {
 /// evaluation's sums (the gather writes them afterwards), which a predicted dashpot reads.
 struct ForceKernels {
   void (*pair_forces)(const State&, const MaterialTable&, PairContacts&, Real h, const DashpotVelocity&) = nullptr;
+  /// The same over a persistent list (neighbour_contacts.h): contacts start and end in their slots.
+  void (*neighbour_forces)(const State&, const MaterialTable&, NeighbourContacts&, Real h,
+                           const DashpotVelocity&) = nullptr;
   void (*wall_forces)(const State&, const MaterialTable&, const Walls&, WallContacts&, Real h,
                       const DashpotVelocity&) = nullptr;
   bool uses_rotation = false;
@@ -39,6 +43,14 @@ ForceKernels select_force_kernels(Separation separation, bool friction, RollingK
 /// Sums contact forces and torques per particle into state.force and state.torque.
 void gather_forces(State& state, const PairContacts& pairs, const WallContacts& walls,
                    const ContactAdjacency& adjacency, bool rotation, int dimension);
+
+/// The same from a persistent list, in the same order and to the same bits: each particle's slots
+/// as j (NeighbourContacts::reverse_slot), then its own row's, then its wall contacts
+/// wall_start[p] .. wall_start[p + 1]. Torques come from the stored n x force. Idle slots hold zero
+/// force, moment and rolling torque and add nothing: a sum that starts at +0 never becomes -0, so
+/// adding zeros leaves its bits alone.
+void gather_neighbour_forces(State& state, const NeighbourContacts& neighbours, const WallContacts& walls,
+                             const std::vector<std::uint32_t>& wall_start, bool rotation, int dimension);
 
 /// Power of the moving walls on the particles through these contacts [W] (serial, in contact order).
 Real wall_power(const Walls& walls, const WallContacts& contacts);

@@ -4,14 +4,28 @@
 
 namespace dem {
 
-void kick(State& s, Real h, const Vec3& gravity, bool rotation, int dimension) {
+namespace {
+
+// The run's settings are template arguments, so the loop body has no branch on them.
+template <bool Rotation, bool Disc>
+void kick_as(State& s, Real h, const Vec3& gravity) {
   parallel_for(s.size(), [&](std::size_t p) {
     const Real inv_m = s.inv_mass[p];
     if (inv_m == 0) return;
     s.velocity[p] += h * (inv_m * s.force[p] + gravity);
-    if (rotation) s.angular_velocity[p] += (h * s.inv_inertia[p]) * s.torque[p];
-    if (dimension == 2) s.velocity[p].z() = 0;
+    if constexpr (Rotation) s.angular_velocity[p] += (h * s.inv_inertia[p]) * s.torque[p];
+    if constexpr (Disc) s.velocity[p].z() = 0;
   });
+}
+
+}  // namespace
+
+void kick(State& s, Real h, const Vec3& gravity, bool rotation, int dimension) {
+  const bool disc = dimension == 2;
+  if (rotation)
+    disc ? kick_as<true, true>(s, h, gravity) : kick_as<true, false>(s, h, gravity);
+  else
+    disc ? kick_as<false, true>(s, h, gravity) : kick_as<false, false>(s, h, gravity);
 }
 
 void drift(State& s, Real h) {

@@ -31,6 +31,13 @@ Worst worst_of(std::size_t n, const Ratio& ratio) {
       &Worst::worse);
 }
 
+Worst deepest_wall_contact(const State& s, const WallContacts& walls) {
+  return worst_of(walls.size(), [&](std::size_t k) {
+    const ParticleIndex p = walls.particle[k];
+    return Worst{s.id[p], s.id[p], walls.overlap[k] / s.radius[p], 0};
+  });
+}
+
 }  // namespace
 
 Worst deepest_contact(const State& s, const PairContacts& pairs, const WallContacts& walls) {
@@ -38,11 +45,20 @@ Worst deepest_contact(const State& s, const PairContacts& pairs, const WallConta
     const ParticleIndex i = pairs.i[k], j = pairs.j[k];
     return Worst{s.id[i], s.id[j], pairs.overlap[k] / std::min(s.radius[i], s.radius[j]), 0};
   });
-  const Worst wall = worst_of(walls.size(), [&](std::size_t k) {
-    const ParticleIndex p = walls.particle[k];
-    return Worst{s.id[p], s.id[p], walls.overlap[k] / s.radius[p], 0};
+  return Worst::worse(pair, deepest_wall_contact(s, walls));
+}
+
+Worst deepest_contact(const State& s, const NeighbourContacts& nb, const WallContacts& walls) {
+  // A row's deepest is its first slot of the largest ratio (a NaN before any number): partners
+  // ascend along a row, so that is Worst::worse's choice among the row's contacts, and the choice
+  // among rows is the same as among all contacts. A row without contacts holds 0 and no slot.
+  const PairContacts& c = nb.list;
+  const Worst pair = worst_of(nb.row_deepest.size(), [&](std::size_t a) {
+    if (nb.row_deepest_slot[a] == no_deepest_slot) return Worst{};
+    const std::uint32_t k = nb.row_deepest_slot[a];
+    return Worst{s.id[a], s.id[c.j[k]], nb.row_deepest[a], 0};
   });
-  return Worst::worse(pair, wall);
+  return Worst::worse(pair, deepest_wall_contact(s, walls));
 }
 
 Worst longest_step_travel(const State& s, Real h) {

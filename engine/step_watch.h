@@ -7,6 +7,7 @@
 // Threading: both are parallel max-reductions whose combine is exact and order-free (ties go to the
 // smaller ids), so the answer is the same for any thread count.
 #include "engine/contacts.h"
+#include "engine/neighbour_contacts.h"
 #include "engine/state.h"
 
 namespace dem {
@@ -23,6 +24,9 @@ struct Worst {
 
 /// The deepest pair or wall contact as a fraction of the smaller radius involved.
 Worst deepest_contact(const State& s, const PairContacts& pairs, const WallContacts& walls);
+/// The same from a persistent list, whose force loop kept each row's deepest contact
+/// (NeighbourContacts::row_deepest): one value per particle to reduce instead of one per slot.
+Worst deepest_contact(const State& s, const NeighbourContacts& pairs, const WallContacts& walls);
 
 /// The largest h |v| / R over the particles: how many of its radii a particle's next step of h
 /// carries it at its present velocity.

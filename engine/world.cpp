@@ -1,5 +1,6 @@
 #include "engine/world.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -51,16 +52,23 @@ World::World(const WorldConfig& config)
     skin_ = 0.1 * r_min;
   }
   candidate_skin_ = skin_;
+  persistent_pairs_ = config_.integrator.control == Control::fixed && config_.integrator.method == Method::verlet;
+  // A scene that leaves the skin to us gets one that fits its speeds (evaluate_neighbour_forces),
+  // from the default up to the smallest radius.
+  adaptive_skin_ = persistent_pairs_ && config_.broadphase.skin < 0;
+  adaptive_skin_cap_ = 10 * skin_;
   for (std::size_t w = 0; w < walls_.count(); ++w)
     use_wall_lists_ = use_wall_lists_ || (config_.broadphase.wall_lists && walls_.filtered(w));
   // The exact stepper keeps no per-contact books: spectra need velocity Verlet (either control).
   const bool book_spectra = config_.collision_spectra && config_.integrator.method == Method::verlet;
   pairs_.parts = {materials_.any_friction(), materials_.any_rolling(), book_spectra};
+  neighbours_stale_ = persistent_pairs_;
   arena_->execute([&] { evaluate_forces(0, true); });
   // Energy already in the springs at the start was not dissipated: count it as work done on them.
-  pairs_.work = pairs_.elastic;
+  PairContacts& pairs = persistent_pairs_ ? neighbours_.list : pairs_;
+  pairs.work = pairs.elastic;
   wall_contacts_.work = wall_contacts_.elastic;
-  for (EnergyBooks& b : pairs_.books) b.normal_work = b.normal_elastic;
+  for (EnergyBooks& b : pairs.books) b.normal_work = b.normal_elastic;
   for (ContactHistory& h : wall_contacts_.history) h.normal_work = h.normal_elastic;
   if (book_spectra) spectra_ = std::make_unique<CollisionSpectra>();
   for (const WallConfig& w : config_.walls)
@@ -93,6 +101,7 @@ void World::add_particles() {
 }
 
 void World::evaluate_forces(Real h, bool force_rebuild) {
+  if (persistent_pairs_) return evaluate_neighbour_forces(h, force_rebuild);
   const std::size_t n = state_.size();
   if (force_rebuild || skin_tracker_.needs_rebuild(state_.position, candidate_skin_)) rebuild_candidates();
   // Contacts that end are booked while the old list is still whole (it is updated in place).
@@ -110,6 +119,44 @@ void World::evaluate_forces(Real h, bool force_rebuild) {
   kernels_.pair_forces(state_, materials_, pairs_, h, dashpot);
   kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, h, dashpot);
   gather_forces(state_, pairs_, wall_contacts_, adjacency_, kernels_.uses_rotation, config_.model.dimension);
+}
+
+void World::evaluate_neighbour_forces(Real h, bool force_rebuild) {
+  const bool rebuild = force_rebuild || skin_tracker_.needs_rebuild(state_.position, candidate_skin_);
+  if (rebuild && adaptive_skin_) {
+    // Wide enough that the fastest particle, at its present speed, needs skin_steps steps to use half
+    // of it: rebuilds every few steps (a mill's charge at a skin of a tenth of a radius) cost more
+    // than the extra candidate pairs a wider skin tests. Chosen from the state alone, so a resumed
+    // run chooses as the straight one did.
+    const Real reach = max_free_displacement(state_, gravity_, scheduler_.sync_interval());
+    candidate_skin_ = std::clamp(2 * skin_steps * reach, skin_, adaptive_skin_cap_);
+  }
+  if (rebuild) rebuild_candidates();
+  if (rebuild || neighbours_stale_) {
+    sync_pair_contacts();
+    if (pairs_.row_start.size() != state_.size() + 1) pairs_.index_rows(state_.size());
+    ended_dissipation_ += rebuild_neighbours(state_, candidates_, pairs_, neighbours_, spectra_.get());
+    neighbours_stale_ = false;
+  }
+  pairs_stale_ = true;
+  const DashpotVelocity dashpot = dashpot_velocity();
+  kernels_.neighbour_forces(state_, materials_, neighbours_, h, dashpot);
+  ended_dissipation_ += finish_ended_contacts(neighbours_, spectra_.get());
+  // The walls as in evaluate_forces (their contacts are rebuilt every step); the lists take the
+  // candidates' skin, chosen from the speeds where the scene left it to us.
+  if (use_wall_lists_ && !wall_lists_.valid(state_, walls_)) wall_lists_.build(state_, walls_, candidate_skin_);
+  ended_dissipation_ += update_wall_contacts(state_, walls_, materials_, wall_contacts_, workspace_,
+                                             adjacency_.wall_start, use_wall_lists_ ? &wall_lists_ : nullptr);
+  if (spectra_) spectra_->record_ended(workspace_.walls, wall_contacts_);
+  kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, h, dashpot);
+  gather_neighbour_forces(state_, neighbours_, wall_contacts_, adjacency_.wall_start, kernels_.uses_rotation,
+                          config_.model.dimension);
+}
+
+void World::sync_pair_contacts() const {
+  if (!pairs_stale_) return;
+  arena_->execute([&] { compact_touching(state_, neighbours_, pairs_, compact_scratch_); });
+  pairs_stale_ = false;
 }
 
 void World::rebuild_candidates() {
@@ -203,6 +250,7 @@ std::vector<WallLoad> World::wall_loads() const {
 }
 
 Energies World::energies() const {
+  sync_pair_contacts();
   Energies e;
   const State& s = state_;
   arena_->execute([&] {
@@ -263,13 +311,17 @@ World::Culprit World::fastest_particle() const {
 
 World::Culprit World::deepest_overlap() const {
   Culprit c;
-  arena_->execute([&] { c = deepest_contact(state_, pairs_, wall_contacts_); });
+  arena_->execute([&] {
+    c = persistent_pairs_ ? deepest_contact(state_, neighbours_, wall_contacts_)
+                          : deepest_contact(state_, pairs_, wall_contacts_);
+  });
   c.time = time();
   return c;
 }
 
 void World::watch_step(Real h) {
-  Culprit deepest = deepest_contact(state_, pairs_, wall_contacts_);
+  Culprit deepest = persistent_pairs_ ? deepest_contact(state_, neighbours_, wall_contacts_)
+                                      : deepest_contact(state_, pairs_, wall_contacts_);
   // The exact stepper's flows also report the deepest overlap inside the step (a whole impact may
   // fit in one); under doubling the islands pass theirs on in finish_round.
   if (config_.integrator.method == Method::exact && config_.integrator.control == Control::fixed)
@@ -301,6 +353,7 @@ EnergyBalance World::energy_balance() const {
 
 Real World::dissipated_energy() const {
   if (config_.integrator.method == Method::exact) return exact_dissipated_;
+  sync_pair_contacts();
   Real live = 0;
   arena_->execute([&] {
     live = live_dissipation(pairs_.work, pairs_.elastic) + live_dissipation(wall_contacts_.work, wall_contacts_.elastic);
@@ -308,6 +361,6 @@ Real World::dissipated_energy() const {
   return ended_dissipation_ + live;
 }
 
-std::uint64_t World::state_hash() const { return dem::state_hash(state_, pairs_, wall_contacts_, clock_); }
+std::uint64_t World::state_hash() const { return dem::state_hash(state_, pair_contacts(), wall_contacts_, clock_); }
 
 }  // namespace dem

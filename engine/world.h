@@ -26,6 +26,7 @@
 #include "engine/forces.h"
 #include "engine/materials.h"
 #include "engine/memory_usage.h"
+#include "engine/neighbour_contacts.h"
 #include "engine/parallel.h"
 #include "engine/scheduler.h"
 #include "engine/state.h"
@@ -105,13 +106,23 @@ class World {
   const State& state() const { return state_; }
   const MaterialTable& materials() const { return materials_; }
   const Walls& walls() const { return walls_; }
-  const PairContacts& pair_contacts() const { return pairs_; }
+  /// The pair contacts of the last force evaluation, compact and in key order.
+  const PairContacts& pair_contacts() const {
+    sync_pair_contacts();
+    return pairs_;
+  }
   const WallContacts& wall_contacts() const { return wall_contacts_; }
   const RunCounters& counters() const { return counters_; }
   /// Collision energy spectra of the contacts ended so far; null unless config.collision_spectra and
   /// velocity Verlet (either control; the exact stepper keeps no per-contact books).
   const CollisionSpectra* collision_spectra() const { return spectra_.get(); }
+  /// The scene's neighbour skin, or its default (0.1 smallest radius) [m].
   Real skin() const { return skin_; }
+  /// True when the run chooses the skin of each candidate list from the speeds (fixed-step Verlet
+  /// without a skin in the scene), between skin() and 10 skin().
+  bool skin_is_chosen() const { return adaptive_skin_; }
+  /// The skin of the current candidate list [m].
+  Real candidate_skin() const { return candidate_skin_; }
   bool has_rotation() const { return kernels_.uses_rotation; }
 
   /// Force and torque of the particles on each wall at the last evaluation (one pass over contacts).
@@ -221,6 +232,12 @@ class World {
  private:
   void add_particles();
   void evaluate_forces(Real h, bool force_rebuild);
+  void evaluate_neighbour_forces(Real h, bool force_rebuild);
+  /// Makes pairs_ current from the persistent list when the last evaluation left it behind.
+  void sync_pair_contacts() const;
+  /// After pairs_ was changed directly (a checkpoint, a particle added or removed): the persistent
+  /// list is made anew from it at the next evaluation.
+  void pair_contacts_changed() { neighbours_stale_ = persistent_pairs_; }
   DashpotVelocity dashpot_velocity() const {
     return {config_.integrator.predicted_dashpot, gravity_, config_.model.dimension};
   }
@@ -257,7 +274,18 @@ class World {
   WallLists wall_lists_;         // when use_wall_lists_
   bool use_wall_lists_ = false;  // config and any filtered wall (Walls::filtered)
 
-  PairContacts pairs_;
+  // Pair contacts. A fixed-step Verlet run keeps them in neighbours_ (one slot per candidate pair, the
+  // history in it) and makes the compact pairs_ only when something reads it; the other runs use
+  // pairs_ alone.
+  mutable PairContacts pairs_;
+  mutable bool pairs_stale_ = false;   // neighbours_ is newer than pairs_
+  bool persistent_pairs_ = false;      // fixed control, velocity Verlet
+  bool adaptive_skin_ = false;         // persistent_pairs_ and no skin in the scene
+  Real adaptive_skin_cap_ = 0;         // [m]
+  static constexpr Real skin_steps = 10;
+  bool neighbours_stale_ = true;       // pairs_ is newer than neighbours_
+  NeighbourContacts neighbours_;
+  mutable std::vector<std::uint32_t> compact_scratch_;
   WallContacts wall_contacts_;
   ContactAdjacency adjacency_;
   ContactWorkspace workspace_;

@@ -63,6 +63,7 @@ const Vec3& World::angular_velocity(ParticleId id) const {
 }
 
 std::vector<ContactForce> World::contact_forces() const {
+  sync_pair_contacts();
   std::vector<ContactForce> out;
   out.reserve(pairs_.size() + wall_contacts_.size());
   const State& s = state_;
@@ -167,6 +168,7 @@ bool World::remove_particle(ParticleId id) {
   if (!found) return false;
   const ParticleIndex slot = *found;
   const State& s = state_;
+  sync_pair_contacts();
   // Energy books (serial, in contact order). Kinetic and rotational energy leave with the particle;
   // its potential energy leaves the reference, so the potential energy released stays that of the
   // particles while they were in the world.
@@ -217,6 +219,8 @@ bool World::remove_particle(ParticleId id) {
 }
 
 void World::refresh_after_population_change() {
+  sync_pair_contacts();
+  pair_contacts_changed();
   const std::size_t n = state_.size();
   wall_lists_.clear();
   pairs_.index_rows(n);

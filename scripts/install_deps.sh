@@ -4,10 +4,11 @@
 #   bash scripts/install_deps.sh             the build's packages
 #   bash scripts/install_deps.sh PKG ...     these packages instead (e.g. the fuzzer's clang)
 set -euo pipefail
-# libbenchmark-tools, python3-numpy and python3-scipy: bench/regress and its tests (compare.py).
+# libbenchmark-tools, python3-numpy and python3-scipy: bench/regress and its tests (compare.py);
+# valgrind: bench/instructions, CI's instruction-count gate.
 packages=(g++ cmake ninja-build git
   libeigen3-dev libtbb-dev libnanoflann-dev libgtest-dev libbenchmark-dev libbenchmark-tools
-  python3-numpy python3-scipy libtomlplusplus-dev libcli11-dev)
+  python3-numpy python3-scipy libtomlplusplus-dev libcli11-dev valgrind)
 if [ $# -gt 0 ]; then packages=("$@"); fi
 missing=()
 for p in "${packages[@]}"; do

@@ -6,8 +6,10 @@
 #include <cmath>
 #include <limits>
 
+#include "engine/scene_loader.h"
 #include "engine/world.h"
 #include "tests/contact_scenes.h"
+#include "tests/mill_scenes.h"
 
 namespace dem {
 namespace {
@@ -50,6 +52,28 @@ TEST(World, RefusesWhatARunCannotSurvive) {
   c.particles[0].velocity.x() = 0;
   c.contacts[0].normal_stiffness = 0;
   EXPECT_THROW(World w(c), std::invalid_argument);
+}
+
+// A scene without a skin gets one chosen from its speeds (fixed-step Verlet): the candidate pairs
+// only have to hold every contact, so the states are those of the default skin's run, bit for bit,
+// while a tumbling mill charge rebuilds its candidates several times less often.
+TEST(World, SkinChosenFromSpeedsChangesOnlyHowOftenCandidatesAreRebuilt) {
+  const Scene scene = load_scene_text(test::mill_scene(8, 0.75, "count = 200"), "mill.toml", ".");
+  WorldConfig fixed_skin = scene.world;
+  fixed_skin.broadphase.skin = 0.1 * test::ball_radius;  // the default, stated
+  World chosen(scene.world), stated(fixed_skin);
+  ASSERT_TRUE(chosen.skin_is_chosen());
+  ASSERT_FALSE(stated.skin_is_chosen());
+  EXPECT_EQ(chosen.skin(), stated.skin());
+  ASSERT_EQ(chosen.run_until(0.6), StepStatus::ok);
+  ASSERT_EQ(stated.run_until(0.6), StepStatus::ok);
+  EXPECT_EQ(chosen.state_hash(), stated.state_hash());
+  EXPECT_GT(chosen.candidate_skin(), chosen.skin());
+  EXPECT_LE(chosen.candidate_skin(), 10 * chosen.skin());
+  const double ratio = static_cast<double>(stated.counters().pair_rebuilds) / chosen.counters().pair_rebuilds;
+  RecordProperty("rebuild_ratio", std::to_string(ratio));
+  EXPECT_GT(ratio, 2) << stated.counters().pair_rebuilds << " rebuilds at the default skin against "
+                      << chosen.counters().pair_rebuilds << " with the skin chosen from the speeds";
 }
 
 }  // namespace

@@ -398,7 +398,9 @@ int run_command(const RunOptions& options) {
       .add("level_max", scene.world.integrator.level_max)
       .add("until", scene.run.until)
       .add("output_interval", interval)
-      .add("skin", world.skin());
+      .add("skin", world.skin())
+      .add("skin_chosen_from_speeds", world.skin_is_chosen())
+      .add("candidate_skin", world.candidate_skin());
   JsonObject counters;
   counters.add("sync_intervals", c.sync_intervals)
       .add("accepted_steps", c.accepted_steps)

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes a LIGGGHTS data file (atom_style granular) from a particle CSV of scenes/data/
+"""Writes a LIGGGHTS data file (atom_style granular; LAMMPS reads it as atom_style sphere) from a particle CSV of scenes/data/
 (id, x, y, z, vx, vy, vz, wx, wy, wz, radius, density), so LIGGGHTS starts from exactly the
 particles our dense_bed scene loads. Usage: csv_to_data.py IN.csv OUT.data"""
 import csv

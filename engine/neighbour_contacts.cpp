@@ -1,0 +1,131 @@
+#include "engine/neighbour_contacts.h"
+
+#include <algorithm>
+
+#include "engine/capacity.h"
+#include "engine/checks.h"
+#include "engine/parallel.h"
+
+namespace dem {
+
+void reset_neighbour(NeighbourContacts& nb, std::size_t k) {
+  reset_pair_contact(nb.list, k);
+  if (nb.list.parts.rolling) nb.list.rolling_torque[k].setZero();
+  nb.moment[k].setZero();
+  nb.touching[k] = touching_no;
+}
+
+namespace {
+
+// Slots follow ids, so the smaller slot of every pair is its i: row a lists a's slots as i, and the
+// slots as j are collected here, walking the slots in order.
+void index_reverse_slots(std::size_t n, NeighbourContacts& nb) {
+  const PairContacts& c = nb.list;
+  nb.reverse_start.assign(n + 1, 0);
+  for (std::size_t k = 0; k < c.size(); ++k) ++nb.reverse_start[c.j[k] + 1];
+  for (std::size_t p = 0; p < n; ++p) nb.reverse_start[p + 1] += nb.reverse_start[p];
+  resize_with_headroom(nb.reverse_slot, c.size());
+  std::vector<std::uint32_t>& cursor = nb.cursor;
+  cursor.assign(nb.reverse_start.begin(), nb.reverse_start.end() - 1);
+  for (std::size_t k = 0; k < c.size(); ++k) nb.reverse_slot[cursor[c.j[k]]++] = static_cast<std::uint32_t>(k);
+}
+
+}  // namespace
+
+Real rebuild_neighbours(const State& s, const broadphase::CandidatePairs& candidates, const PairContacts& contacts,
+                        NeighbourContacts& nb, CollisionSpectra* spectra) {
+  const std::size_t n = candidates.row_count();
+  const std::size_t m = candidates.pair_count();
+  DEM_ASSERT(n == s.size() && contacts.row_start.size() == n + 1);
+  PairContacts& list = nb.list;
+  list.parts = contacts.parts;
+  list.parts.keyed = false;
+  list.resize(m);
+  list.row_start = candidates.row_start;
+  resize_with_headroom(nb.touching, m);
+  resize_with_headroom(nb.moment, m);
+  nb.row_ended.assign(n, 0);
+  nb.row_has_ended.assign(n, 0);
+  nb.row_deepest.assign(n, 0);
+  nb.row_deepest_slot.assign(n, no_deepest_slot);
+  nb.inherited.assign(contacts.size(), 0);
+  // Row a holds the candidates (a, b > a); slots follow ids, so a row of ascending partners is
+  // ascending in key, and so are the contacts of row a in the compact list: a linear merge.
+  parallel_for(n, [&](std::size_t a) {
+    std::uint32_t old = contacts.row_start[a];
+    const std::uint32_t old_end = contacts.row_start[a + 1];
+    for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
+      const ParticleIndex b = candidates.partner[k];
+      DEM_ASSERT(s.id[a] < s.id[b]);  // slots follow ids
+      list.j[k] = b;
+      const std::uint64_t key = pair_key(s.id[a], s.id[b]);
+      while (old < old_end && contacts.key[old] < key) ++old;
+      if (old < old_end && contacts.key[old] == key) {
+        reset_neighbour(nb, k);
+        PairContacts::for_each_carried(list.parts, [&](auto field) { (list.*field)[k] = (contacts.*field)[old]; });
+        nb.inherited[old] = 1;
+        nb.touching[k] = touching_yes;
+        ++old;
+      } else {
+        reset_neighbour(nb, k);
+      }
+    }
+  });
+  index_reverse_slots(n, nb);
+  // Contacts left behind: serial, in key order (rare: a pair leaves the candidates only after moving
+  // apart by more than the skin).
+  Real ended = 0;
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    if (nb.inherited[k]) continue;
+    ended += contacts.work[k] - contacts.elastic[k];
+    if (spectra) spectra->record(CollisionSpectra::ball_ball, contacts.history(k), contacts.work[k], contacts.elastic[k]);
+  }
+  return ended;
+}
+
+Real finish_ended_contacts(NeighbourContacts& nb, CollisionSpectra* spectra) {
+  const std::size_t n = nb.row_has_ended.size();
+  if (std::find(nb.row_has_ended.begin(), nb.row_has_ended.end(), 1) == nb.row_has_ended.end()) return 0;
+  // Rows without an ended contact add +0, so this is update_pair_contacts' sum bit for bit.
+  const Real ended = block_sum<Real>(n, [&](std::size_t a) { return nb.row_ended[a]; });
+  PairContacts& c = nb.list;
+  for (std::size_t a = 0; a < n; ++a) {
+    if (!nb.row_has_ended[a]) continue;
+    for (std::uint32_t k = c.row_start[a]; k < c.row_start[a + 1]; ++k) {
+      if (nb.touching[k] != touching_ended) continue;
+      if (spectra) spectra->record(CollisionSpectra::ball_ball, c.history(k), c.work[k], c.elastic[k]);
+      reset_neighbour(nb, k);
+    }
+    nb.row_ended[a] = 0;
+    nb.row_has_ended[a] = 0;
+  }
+  return ended;
+}
+
+void compact_touching(const State& s, const NeighbourContacts& nb, PairContacts& out, std::vector<std::uint32_t>& count) {
+  const PairContacts& c = nb.list;
+  const std::size_t n = c.row_start.size() - 1;
+  count.resize(n);
+  parallel_for(n, [&](std::size_t a) {
+    std::uint32_t touching = 0;
+    for (std::uint32_t k = c.row_start[a]; k < c.row_start[a + 1]; ++k) touching += nb.touching[k] == touching_yes;
+    count[a] = touching;
+  });
+  exclusive_scan(count, out.row_start);
+  out.parts = c.parts;
+  out.parts.keyed = true;
+  out.resize(out.row_start[n]);
+  parallel_for(n, [&](std::size_t a) {
+    std::uint32_t slot = out.row_start[a];
+    for (std::uint32_t k = c.row_start[a]; k < c.row_start[a + 1]; ++k) {
+      if (nb.touching[k] != touching_yes) continue;
+      copy_pair(c, k, out, slot);  // the fields the slot holds
+      out.i[slot] = static_cast<ParticleIndex>(a);
+      out.key[slot] = pair_key(s.id[a], s.id[c.j[k]]);
+      ++slot;
+    }
+  });
+  DEM_VALIDATE(std::is_sorted(out.key.begin(), out.key.end()));
+}
+
+}  // namespace dem

@@ -1,0 +1,71 @@
+#pragma once
+// The persistent pair list of the fixed-step Verlet run: one slot per candidate pair, in the
+// candidates' own order (CSR rows by the smaller slot, partners ascending, so keys ascend), each slot
+// carrying the pair's contact history while the pair touches and start values while it does not.
+// Contact history thus lives with the candidate pair: between candidate rebuilds nothing is rebuilt,
+// merged or moved; the force loop tests each slot for overlap and evaluates, starts or ends its
+// contact in place (forces.h, neighbour forces). Only a candidate rebuild moves history, by a row-wise
+// merge of keys from the compact contact list.
+// The compact list (PairContacts of the touching pairs only, what outputs, checkpoints, islands and
+// the embedding API read) is made from this one on demand by compact_touching, and this one is made
+// anew from the compact list and new candidates by rebuild_neighbours.
+// Threading: every loop is per row (particle) or per slot, writing only its own slots; the serial
+// passes run in slot (key) order, so results are identical for any thread count.
+#include <cstdint>
+#include <vector>
+
+#include "broadphase/candidate_pairs.h"
+#include "engine/collision_spectra.h"
+#include "engine/contacts.h"
+
+namespace dem {
+
+/// NeighbourContacts::row_deepest_slot of a row without a contact.
+inline constexpr std::uint32_t no_deepest_slot = 0xffffffffu;
+
+/// Values of NeighbourContacts::touching.
+enum Touching : std::uint8_t { touching_no = 0, touching_yes = 1, touching_ended = 2 };
+
+struct NeighbourContacts {
+  // One slot per candidate pair: list.row_start is the candidates' row_start and list.j their
+  // partners; a slot's i is its row (slots follow ids, so the row is the pair's smaller id) and it
+  // keeps no key (parts.keyed is false).
+  PairContacts list;
+  std::vector<std::uint8_t> touching;      // per slot: Touching
+  std::vector<Vec3> moment;                // per slot, with rotation: n x force of the last evaluation, 0 if idle [N]
+  // For the gather: the slots in which particle p is j are reverse_slot[reverse_start[p] ..
+  // reverse_start[p + 1]], ascending (so by ascending i); those in which it is i are its own row.
+  std::vector<std::uint32_t> reverse_start;
+  std::vector<std::uint32_t> reverse_slot;
+  std::vector<Real> row_ended;             // per row: what its contacts that ended this step dissipated [J]
+  std::vector<std::uint8_t> row_has_ended;  // per row: 1 when a contact of the row ended this step
+  // Per row, from the last force loop: its deepest contact's overlap over the smaller radius, and
+  // that contact's slot (no_deepest_slot when the row has none), for the step watch.
+  std::vector<Real> row_deepest;
+  std::vector<std::uint32_t> row_deepest_slot;
+  std::vector<std::uint8_t> inherited;     // scratch of rebuild_neighbours, per compact contact
+  std::vector<std::uint32_t> cursor;       // scratch of rebuild_neighbours, per particle
+
+  std::size_t size() const { return list.size(); }
+};
+
+/// Makes `neighbours` from the candidate pairs, each slot inheriting the history of the contact of
+/// `contacts` (compact, key order, row_start indexed) with its key. Contacts that are no longer
+/// candidates end without a release step (they moved apart by more than the skin in one step); what
+/// they dissipated is returned [J] and, when `spectra` is given, they are booked there in key order.
+Real rebuild_neighbours(const State& state, const broadphase::CandidatePairs& candidates, const PairContacts& contacts,
+                        NeighbourContacts& neighbours, CollisionSpectra* spectra);
+
+/// After the force loop: books the contacts it marked touching_ended (in key order into `spectra` when
+/// given), resets their slots and returns what they dissipated [J], summed row by row as
+/// update_pair_contacts sums the contacts that end.
+Real finish_ended_contacts(NeighbourContacts& neighbours, CollisionSpectra* spectra);
+
+/// Sets slot k to an idle pair's values: a new contact's history and books, no force, no torque.
+void reset_neighbour(NeighbourContacts& neighbours, std::size_t k);
+
+/// The compact list of the touching slots, in key order, with row_start indexed.
+void compact_touching(const State& state, const NeighbourContacts& neighbours, PairContacts& contacts,
+                      std::vector<std::uint32_t>& scratch);
+
+}  // namespace dem

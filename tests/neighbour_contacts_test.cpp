@@ -1,0 +1,161 @@
+// The persistent pair list of fixed-step Verlet (engine/neighbour_contacts.h): history moves with
+// the candidate pairs at rebuilds, contacts that leave the candidates end and are booked, and what
+// the World derives from the list (the compact contact list, the gathered forces, the deepest
+// overlap) agrees with the compact-list routines and with an independent overlap search.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <set>
+#include <string>
+
+#include "broadphase/grid.h"
+#include "engine/neighbour_contacts.h"
+#include "engine/step_watch.h"
+#include "engine/world.h"
+
+namespace dem {
+namespace {
+
+std::string scene(const std::string& name) { return std::string(DEM_SOURCE_DIR) + "/scenes/" + name; }
+
+bool same_bits(const Vec3& a, const Vec3& b) {
+  return std::memcmp(a.data(), b.data(), sizeof(double) * 3) == 0;
+}
+
+// Three spheres on the x axis: 0 and 1 overlap, 2 is far from both.
+State three_spheres() {
+  State s;
+  s.add(Vec3(0, 0, 0), Vec3::Zero(), Vec3::Zero(), 0.01, 1, 1, 0);
+  s.add(Vec3(0.019, 0, 0), Vec3::Zero(), Vec3::Zero(), 0.01, 1, 1, 0);
+  s.add(Vec3(1, 0, 0), Vec3::Zero(), Vec3::Zero(), 0.01, 1, 1, 0);
+  return s;
+}
+
+// A compact list (key order, rows indexed) holding the contacts (0, 1) and (0, 2) with history.
+PairContacts compact_list(const State& s) {
+  PairContacts c;
+  c.parts = {true, false, true};
+  c.resize(2);
+  const ParticleIndex partner[2] = {1, 2};
+  for (std::size_t k = 0; k < 2; ++k) {
+    c.key[k] = pair_key(s.id[0], s.id[partner[k]]);
+    c.i[k] = 0;
+    c.j[k] = partner[k];
+    c.tangential_spring[k] = Vec3(0, 1e-5 * static_cast<Real>(k + 1), 0);
+    c.mode[k] = mode_sliding;
+    c.books[k] = {0.25, 0.125, 1.0};
+    c.overlap[k] = 1e-3;
+    c.work[k] = 0.5 + static_cast<Real>(k);
+    c.elastic[k] = 0.125;
+    c.force[k] = Vec3(2, 0, 0);
+  }
+  c.index_rows(s.size());
+  return c;
+}
+
+TEST(NeighbourContacts, RebuildCarriesHistoryAndEndsWhatLeftTheCandidates) {
+  const State s = three_spheres();
+  broadphase::GridBroadphase grid;
+  broadphase::CandidatePairs candidates;
+  grid.find_pairs(s.position, s.radius, 0.002, candidates);
+  ASSERT_EQ(candidates.pair_count(), 1u) << "only (0, 1) is a candidate";
+  const PairContacts before = compact_list(s);
+  NeighbourContacts nb;
+  CollisionSpectra spectra;
+  const Real ended = rebuild_neighbours(s, candidates, before, nb, &spectra);
+  // (0, 2) is no candidate: it ends with what it dissipated, work - elastic, and is booked once.
+  EXPECT_EQ(ended, before.work[1] - before.elastic[1]);
+  EXPECT_EQ(spectra.events(CollisionSpectra::ball_ball), 1u);
+  ASSERT_EQ(nb.size(), 1u);
+  EXPECT_EQ(nb.touching[0], touching_yes);
+  // The compact list made back from the persistent one is (0, 1) with every carried field intact.
+  PairContacts after;
+  std::vector<std::uint32_t> scratch;
+  compact_touching(s, nb, after, scratch);
+  ASSERT_EQ(after.size(), 1u);
+  EXPECT_EQ(after.key[0], before.key[0]);
+  EXPECT_EQ(after.i[0], 0u);
+  EXPECT_EQ(after.j[0], 1u);
+  EXPECT_TRUE(same_bits(after.tangential_spring[0], before.tangential_spring[0]));
+  EXPECT_EQ(after.mode[0], before.mode[0]);
+  EXPECT_EQ(after.books[0].normal_work, before.books[0].normal_work);
+  EXPECT_EQ(after.work[0], before.work[0]);
+  EXPECT_EQ(after.elastic[0], before.elastic[0]);
+  EXPECT_EQ(after.overlap[0], before.overlap[0]);
+  EXPECT_TRUE(same_bits(after.force[0], before.force[0]));
+  EXPECT_EQ(after.row_start, (std::vector<std::uint32_t>{0, 1, 1, 1}));
+}
+
+TEST(NeighbourContacts, AnIdleSlotStartsAsANewContact) {
+  State s = three_spheres();
+  s.position[1] = Vec3(0.021, 0, 0);  // a candidate (gap 1 mm < skin), not touching
+  broadphase::GridBroadphase grid;
+  broadphase::CandidatePairs candidates;
+  grid.find_pairs(s.position, s.radius, 0.002, candidates);
+  PairContacts none;
+  none.parts = {true, false, true};
+  none.index_rows(s.size());
+  NeighbourContacts nb;
+  EXPECT_EQ(rebuild_neighbours(s, candidates, none, nb, nullptr), 0);
+  ASSERT_EQ(nb.size(), 1u);
+  EXPECT_EQ(nb.touching[0], touching_no);
+  EXPECT_EQ(nb.list.overlap[0], 0) << "overlap 0 marks the onset at the first evaluation";
+  EXPECT_TRUE(nb.list.force[0].isZero(0));
+  EXPECT_TRUE(nb.moment[0].isZero(0));
+  EXPECT_EQ(nb.list.books[0].impact_energy, -1);
+  PairContacts compact;
+  std::vector<std::uint32_t> scratch;
+  compact_touching(s, nb, compact, scratch);
+  EXPECT_EQ(compact.size(), 0u);
+}
+
+// On the settled bed after some steps: the compact list holds exactly the overlapping pairs (found
+// anew by the grid with no skin), and the forces, torques and deepest overlap the World derived
+// from its persistent list are those the compact-list routines give, bit for bit.
+TEST(NeighbourContacts, WorldAgreesWithTheCompactListOnTheDenseBed) {
+  const std::unique_ptr<World> world = World::load(scene("dense_bed.toml"), {"run.threads=2"});
+  for (int step = 0; step < 60; ++step) ASSERT_EQ(world->advance_sync_interval(), StepStatus::ok);
+  const State& s = world->state();
+  const PairContacts& pairs = world->pair_contacts();
+  ASSERT_GT(pairs.size(), s.size());
+
+  broadphase::GridBroadphase grid;
+  broadphase::CandidatePairs touching;
+  grid.find_pairs(s.position, s.radius, 0.0, touching);
+  std::set<std::uint64_t> expected;
+  for (std::size_t a = 0; a < touching.row_count(); ++a)
+    for (std::uint32_t q = touching.row_start[a]; q < touching.row_start[a + 1]; ++q) {
+      const ParticleIndex b = touching.partner[q];
+      const Real reach = s.radius[a] + s.radius[b];
+      if ((s.position[a] - s.position[b]).squaredNorm() < reach * reach)
+        expected.insert(pair_key(s.id[a], s.id[b]));
+    }
+  EXPECT_TRUE(std::is_sorted(pairs.key.begin(), pairs.key.end()));
+  EXPECT_EQ(std::set<std::uint64_t>(pairs.key.begin(), pairs.key.end()), expected);
+
+  ContactAdjacency adjacency;
+  build_pair_adjacency(s.size(), pairs, adjacency);
+  const WallContacts& walls = world->wall_contacts();
+  adjacency.wall_start.assign(s.size() + 1, 0);
+  for (std::size_t k = 0; k < walls.size(); ++k) ++adjacency.wall_start[walls.particle[k] + 1];
+  for (std::size_t p = 0; p < s.size(); ++p) adjacency.wall_start[p + 1] += adjacency.wall_start[p];
+  State gathered = s;
+  gather_forces(gathered, pairs, walls, adjacency, world->has_rotation(), 3);
+  std::size_t differ = 0;
+  for (std::size_t p = 0; p < s.size(); ++p)
+    differ += !same_bits(gathered.force[p], s.force[p]) || !same_bits(gathered.torque[p], s.torque[p]);
+  EXPECT_EQ(differ, 0u) << "particles whose force or torque differ from the compact gather";
+
+  const Worst compact = deepest_contact(s, pairs, walls);
+  const Worst persistent = world->deepest_overlap();
+  EXPECT_EQ(persistent.value, compact.value);
+  EXPECT_EQ(persistent.particle, compact.particle);
+  EXPECT_EQ(persistent.partner, compact.partner);
+  EXPECT_GT(compact.value, 0);
+}
+
+}  // namespace
+}  // namespace dem
