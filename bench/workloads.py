@@ -204,7 +204,11 @@ def write_markdown(path, data, intervals, stages):
                   "`update_pair_contacts` + `build_pair_adjacency` + `update_wall_contacts`; forces = the law's "
                   "pair and wall loops + `gather_forces`; integrate = kick, drift, kick), times how often an "
                   "interval calls them; other = the interval minus the stages (checks; under doubling the "
-                  "islands, trials' bookkeeping, error estimates, redos: the scheduler's overhead).", "",
+                  "islands, trials' bookkeeping, error estimates, redos: the scheduler's overhead). These are "
+                  "the stages of the compact contact list, which step doubling's islands use; a fixed-step "
+                  "interval keeps its pair contacts in a persistent list instead (engine/neighbour_contacts.h: "
+                  "no contact update between candidate rebuilds), so on the bed its interval costs less than "
+                  "these stages and its 'other' is negative.", "",
                   "| workload | N | control | threads | grid | contacts | forces | integrate | other | total |",
                   "|---|---|---|---|---|---|---|---|---|---|"])
     for w, wname in WORKLOADS:

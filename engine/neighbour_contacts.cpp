@@ -11,7 +11,7 @@ namespace dem {
 void reset_neighbour(NeighbourContacts& nb, std::size_t k) {
   reset_pair_contact(nb.list, k);
   if (nb.list.parts.rolling) nb.list.rolling_torque[k].setZero();
-  nb.moment[k].setZero();
+  if (!nb.moment.empty()) nb.moment[k].setZero();
   nb.touching[k] = touching_no;
 }
 
@@ -43,7 +43,8 @@ Real rebuild_neighbours(const State& s, const broadphase::CandidatePairs& candid
   list.resize(m);
   list.row_start = candidates.row_start;
   resize_with_headroom(nb.touching, m);
-  resize_with_headroom(nb.moment, m);
+  // Torques need n x force only where contacts turn the particles (friction or rolling resistance).
+  if (list.parts.friction || list.parts.rolling) resize_with_headroom(nb.moment, m);
   nb.row_ended.assign(n, 0);
   nb.row_has_ended.assign(n, 0);
   nb.row_deepest.assign(n, 0);

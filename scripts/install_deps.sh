@@ -5,10 +5,11 @@
 #   bash scripts/install_deps.sh PKG ...     these packages instead (e.g. the fuzzer's clang)
 set -euo pipefail
 # libbenchmark-tools, python3-numpy and python3-scipy: bench/regress and its tests (compare.py);
-# valgrind: bench/instructions, CI's instruction-count gate.
+# valgrind: bench/instructions, CI's instruction-count gate; python3-matplotlib: the plots dem run and
+# dem trade draw and the bench/ plotting scripts.
 packages=(g++ cmake ninja-build git
   libeigen3-dev libtbb-dev libnanoflann-dev libgtest-dev libbenchmark-dev libbenchmark-tools
-  python3-numpy python3-scipy libtomlplusplus-dev libcli11-dev valgrind)
+  python3-numpy python3-scipy python3-matplotlib libtomlplusplus-dev libcli11-dev valgrind)
 if [ $# -gt 0 ]; then packages=("$@"); fi
 missing=()
 for p in "${packages[@]}"; do
