@@ -7,6 +7,7 @@
 // the per-particle adjacency used to gather forces.
 // Threading: counts, scan and fills are per row (particle), each writing only its own range, so the
 // lists are identical for any thread count.
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -138,6 +139,9 @@ inline bool pair_touches(const State& s, ParticleIndex a, ParticleIndex b) {
   const Real reach = s.radius[a] + s.radius[b];
   return (s.position[a] - s.position[b]).squaredNorm() < reach * reach;
 }
+
+/// How deep a pair contact is, as the step watch reports it: its overlap over the smaller radius.
+inline Real overlap_ratio(Real overlap, Real radius_a, Real radius_b) { return overlap / std::min(radius_a, radius_b); }
 
 /// Books the step on which pair contact k (slots i, j: the force is on i) parted, from the positions
 /// now, and returns what the contact dissipated over its life: its work minus what its springs held [J].

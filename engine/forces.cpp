@@ -166,24 +166,35 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
     std::uint8_t any_ended = 0;
     Real deepest = 0;
     std::uint32_t deepest_slot = no_deepest_slot;
+    // Contacts the last rebuild left behind end here too, summed in key order with the slots' own.
+    std::uint32_t q = nb.left_start.empty() ? 0 : nb.left_start[a];
+    const std::uint32_t q_end = nb.left_start.empty() ? 0 : nb.left_start[a + 1];
+    const auto end_left_before = [&](std::uint64_t key) {
+      for (; q < q_end && nb.left_key[q] < key; ++q) {
+        ended += nb.left_dissipated[q];
+        any_ended = 1;
+      }
+    };
     for (std::uint32_t k = c.row_start[a]; k < c.row_start[a + 1]; ++k) {
       const ParticleIndex i = static_cast<ParticleIndex>(a), j = c.j[k];
       if (pair_touches(s, i, j)) {
         const Vec3 n = evaluate_pair<Law>(s, materials, c, k, i, j, h, d, books);
         if constexpr (Law::uses_rotation) nb.moment[k] = n.cross(c.force[k]);
         nb.touching[k] = touching_yes;
-        // As deepest_contact computes it; the first of equal ratios, a NaN before any number.
-        const Real ratio = c.overlap[k] / std::min(s.radius[i], s.radius[j]);
+        // The row's deepest: the first of equal ratios, a NaN before any number (deepest_contact).
+        const Real ratio = overlap_ratio(c.overlap[k], s.radius[i], s.radius[j]);
         if (deepest_slot == no_deepest_slot || (!std::isnan(deepest) && (std::isnan(ratio) || ratio > deepest))) {
           deepest = ratio;
           deepest_slot = k;
         }
       } else if (nb.touching[k] == touching_yes) {
+        if (q < q_end) end_left_before(pair_key(s.id[i], s.id[j]));
         ended += release_pair_contact(s, materials, i, j, c, k);
         nb.touching[k] = touching_ended;
         any_ended = 1;
       }
     }
+    end_left_before(~std::uint64_t{0});
     nb.row_ended[a] = ended;
     nb.row_has_ended[a] = any_ended;
     nb.row_deepest[a] = deepest;

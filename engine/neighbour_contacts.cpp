@@ -32,8 +32,8 @@ void index_reverse_slots(std::size_t n, NeighbourContacts& nb) {
 
 }  // namespace
 
-Real rebuild_neighbours(const State& s, const broadphase::CandidatePairs& candidates, const PairContacts& contacts,
-                        NeighbourContacts& nb, CollisionSpectra* spectra) {
+void rebuild_neighbours(const State& s, const broadphase::CandidatePairs& candidates, const PairContacts& contacts,
+                        NeighbourContacts& nb) {
   const std::size_t n = candidates.row_count();
   const std::size_t m = candidates.pair_count();
   DEM_ASSERT(n == s.size() && contacts.row_start.size() == n + 1);
@@ -73,33 +73,57 @@ Real rebuild_neighbours(const State& s, const broadphase::CandidatePairs& candid
     }
   });
   index_reverse_slots(n, nb);
-  // Contacts left behind: serial, in key order (rare: a pair leaves the candidates only after moving
-  // apart by more than the skin).
-  Real ended = 0;
-  for (std::size_t k = 0; k < contacts.size(); ++k) {
+  // The contacts left behind, by row (the compact list is in key order, so rows ascend).
+  nb.left_behind.clear();
+  nb.left_key.clear();
+  nb.left_dissipated.clear();
+  nb.left_start.clear();
+  for (std::uint32_t k = 0; k < contacts.size(); ++k) {
     if (nb.inherited[k]) continue;
-    ended += contacts.work[k] - contacts.elastic[k];
-    if (spectra) spectra->record(CollisionSpectra::ball_ball, contacts.history(k), contacts.work[k], contacts.elastic[k]);
+    nb.left_behind.push_back(k);
+    nb.left_key.push_back(contacts.key[k]);
+    nb.left_dissipated.push_back(contacts.work[k] - contacts.elastic[k]);
   }
-  return ended;
+  if (nb.left_behind.empty()) return;
+  nb.left_start.assign(n + 1, 0);
+  for (std::uint32_t k : nb.left_behind) ++nb.left_start[contacts.i[k] + 1];
+  for (std::size_t a = 0; a < n; ++a) nb.left_start[a + 1] += nb.left_start[a];
 }
 
-Real finish_ended_contacts(NeighbourContacts& nb, CollisionSpectra* spectra) {
+Real finish_ended_contacts(const State& s, NeighbourContacts& nb, const PairContacts& left_source,
+                           CollisionSpectra* spectra) {
   const std::size_t n = nb.row_has_ended.size();
   if (std::find(nb.row_has_ended.begin(), nb.row_has_ended.end(), 1) == nb.row_has_ended.end()) return 0;
   // Rows without an ended contact add +0, so this is update_pair_contacts' sum bit for bit.
   const Real ended = block_sum<Real>(n, [&](std::size_t a) { return nb.row_ended[a]; });
   PairContacts& c = nb.list;
+  const bool left = !nb.left_start.empty();
   for (std::size_t a = 0; a < n; ++a) {
     if (!nb.row_has_ended[a]) continue;
+    // The row's ended slots and left-behind contacts, in key order.
+    std::uint32_t q = left ? nb.left_start[a] : 0;
+    const std::uint32_t q_end = left ? nb.left_start[a + 1] : 0;
+    const auto book_left_before = [&](std::uint64_t key) {
+      for (; q < q_end && nb.left_key[q] < key; ++q) {
+        const std::uint32_t k = nb.left_behind[q];
+        if (spectra)
+          spectra->record(CollisionSpectra::ball_ball, left_source.history(k), left_source.work[k], left_source.elastic[k]);
+      }
+    };
     for (std::uint32_t k = c.row_start[a]; k < c.row_start[a + 1]; ++k) {
       if (nb.touching[k] != touching_ended) continue;
+      book_left_before(pair_key(s.id[a], s.id[c.j[k]]));
       if (spectra) spectra->record(CollisionSpectra::ball_ball, c.history(k), c.work[k], c.elastic[k]);
       reset_neighbour(nb, k);
     }
+    book_left_before(~std::uint64_t{0});
     nb.row_ended[a] = 0;
     nb.row_has_ended[a] = 0;
   }
+  nb.left_behind.clear();
+  nb.left_key.clear();
+  nb.left_dissipated.clear();
+  nb.left_start.clear();
   return ended;
 }
 

@@ -43,6 +43,14 @@ struct NeighbourContacts {
   // that contact's slot (no_deepest_slot when the row has none), for the step watch.
   std::vector<Real> row_deepest;
   std::vector<std::uint32_t> row_deepest_slot;
+  // Contacts a rebuild left behind (no longer candidates: they parted by more than the skin, or the
+  // skin is 0), as indices into the compact list it read, ascending; row a's are left_behind[
+  // left_start[a] .. left_start[a + 1]]. They end with the contacts that part in the next force loop,
+  // merged with them in key order, so sums and spectra are those of update_pair_contacts.
+  std::vector<std::uint32_t> left_behind;
+  std::vector<std::uint64_t> left_key;     // per left-behind contact: its key
+  std::vector<Real> left_dissipated;       // per left-behind contact: its work less its springs' energy [J]
+  std::vector<std::uint32_t> left_start;   // empty when nothing was left behind
   std::vector<std::uint8_t> inherited;     // scratch of rebuild_neighbours, per compact contact
   std::vector<std::uint32_t> cursor;       // scratch of rebuild_neighbours, per particle
 
@@ -51,15 +59,18 @@ struct NeighbourContacts {
 
 /// Makes `neighbours` from the candidate pairs, each slot inheriting the history of the contact of
 /// `contacts` (compact, key order, row_start indexed) with its key. Contacts that are no longer
-/// candidates end without a release step (they moved apart by more than the skin in one step); what
-/// they dissipated is returned [J] and, when `spectra` is given, they are booked there in key order.
-Real rebuild_neighbours(const State& state, const broadphase::CandidatePairs& candidates, const PairContacts& contacts,
-                        NeighbourContacts& neighbours, CollisionSpectra* spectra);
+/// candidates end without a release step, as update_pair_contacts ends them: they are listed in
+/// left_behind for the next force loop and finish_ended_contacts, which read them from `contacts`
+/// (it must stay unchanged until then).
+void rebuild_neighbours(const State& state, const broadphase::CandidatePairs& candidates, const PairContacts& contacts,
+                        NeighbourContacts& neighbours);
 
-/// After the force loop: books the contacts it marked touching_ended (in key order into `spectra` when
-/// given), resets their slots and returns what they dissipated [J], summed row by row as
-/// update_pair_contacts sums the contacts that end.
-Real finish_ended_contacts(NeighbourContacts& neighbours, CollisionSpectra* spectra);
+/// After the force loop: books the contacts that ended, those it marked touching_ended and those
+/// the last rebuild left behind (read from `left_source`, the list rebuild_neighbours read), in key
+/// order into `spectra` when given; resets the slots; returns what they dissipated [J], summed row by
+/// row as update_pair_contacts sums the contacts that end.
+Real finish_ended_contacts(const State& state, NeighbourContacts& neighbours, const PairContacts& left_source,
+                           CollisionSpectra* spectra);
 
 /// Sets slot k to an idle pair's values: a new contact's history and books, no force, no torque.
 void reset_neighbour(NeighbourContacts& neighbours, std::size_t k);

@@ -43,7 +43,7 @@ Worst deepest_wall_contact(const State& s, const WallContacts& walls) {
 Worst deepest_contact(const State& s, const PairContacts& pairs, const WallContacts& walls) {
   const Worst pair = worst_of(pairs.size(), [&](std::size_t k) {
     const ParticleIndex i = pairs.i[k], j = pairs.j[k];
-    return Worst{s.id[i], s.id[j], pairs.overlap[k] / std::min(s.radius[i], s.radius[j]), 0};
+    return Worst{s.id[i], s.id[j], overlap_ratio(pairs.overlap[k], s.radius[i], s.radius[j]), 0};
   });
   return Worst::worse(pair, deepest_wall_contact(s, walls));
 }

@@ -56,7 +56,6 @@ World::World(const WorldConfig& config)
   // A scene that leaves the skin to us gets one that fits its speeds (evaluate_neighbour_forces),
   // from the default up to the smallest radius.
   adaptive_skin_ = persistent_pairs_ && config_.broadphase.skin < 0;
-  adaptive_skin_cap_ = 10 * skin_;
   for (std::size_t w = 0; w < walls_.count(); ++w)
     use_wall_lists_ = use_wall_lists_ || (config_.broadphase.wall_lists && walls_.filtered(w));
   // The exact stepper keeps no per-contact books: spectra need velocity Verlet (either control).
@@ -126,24 +125,27 @@ void World::evaluate_neighbour_forces(Real h, bool force_rebuild) {
   if (rebuild && adaptive_skin_) {
     // Wide enough that the fastest particle, at its present speed, needs skin_steps steps to use half
     // of it: rebuilds every few steps (a mill's charge at a skin of a tenth of a radius) cost more
-    // than the extra candidate pairs a wider skin tests. Chosen from the state alone, so a resumed
-    // run chooses as the straight one did.
+    // than the extra candidate pairs a wider skin tests. At most the smallest radius (ten default
+    // skins; skin_ follows particles added later). Chosen from the state alone, so a resumed run
+    // chooses as the straight one did.
     const Real reach = max_free_displacement(state_, gravity_, scheduler_.sync_interval());
-    candidate_skin_ = std::clamp(2 * skin_steps * reach, skin_, adaptive_skin_cap_);
+    candidate_skin_ = std::clamp(2 * skin_steps * reach, skin_, 10 * skin_);
   }
   if (rebuild) rebuild_candidates();
   if (rebuild || neighbours_stale_) {
     sync_pair_contacts();
     if (pairs_.row_start.size() != state_.size() + 1) pairs_.index_rows(state_.size());
-    ended_dissipation_ += rebuild_neighbours(state_, candidates_, pairs_, neighbours_, spectra_.get());
+    rebuild_neighbours(state_, candidates_, pairs_, neighbours_);
     neighbours_stale_ = false;
   }
+  // pairs_ keeps the list the rebuild read until the next sync: finish_ended_contacts books the
+  // contacts the rebuild left behind from it.
   pairs_stale_ = true;
   const DashpotVelocity dashpot = dashpot_velocity();
   kernels_.neighbour_forces(state_, materials_, neighbours_, h, dashpot);
-  ended_dissipation_ += finish_ended_contacts(neighbours_, spectra_.get());
-  // The walls as in evaluate_forces (their contacts are rebuilt every step); the lists take the
-  // candidates' skin, chosen from the speeds where the scene left it to us.
+  ended_dissipation_ += finish_ended_contacts(state_, neighbours_, pairs_, spectra_.get());
+  // The walls as in evaluate_forces (their contacts are rebuilt every step), but the lists take the
+  // candidates' skin, which may be chosen from the speeds.
   if (use_wall_lists_ && !wall_lists_.valid(state_, walls_)) wall_lists_.build(state_, walls_, candidate_skin_);
   ended_dissipation_ += update_wall_contacts(state_, walls_, materials_, wall_contacts_, workspace_,
                                              adjacency_.wall_start, use_wall_lists_ ? &wall_lists_ : nullptr);
@@ -154,9 +156,17 @@ void World::evaluate_neighbour_forces(Real h, bool force_rebuild) {
 }
 
 void World::sync_pair_contacts() const {
+  const std::lock_guard<std::mutex> lock(pairs_mutex_);
   if (!pairs_stale_) return;
   arena_->execute([&] { compact_touching(state_, neighbours_, pairs_, compact_scratch_); });
   pairs_stale_ = false;
+}
+
+World::Culprit World::deepest_contact_now() const {
+  // The persistent list's per-row deepest contacts hold from its last evaluation on; after a change
+  // it has not seen yet (a checkpoint, a particle added or removed) the compact list is current.
+  if (persistent_pairs_ && !neighbours_stale_) return deepest_contact(state_, neighbours_, wall_contacts_);
+  return deepest_contact(state_, pair_contacts(), wall_contacts_);
 }
 
 void World::rebuild_candidates() {
@@ -311,17 +321,13 @@ World::Culprit World::fastest_particle() const {
 
 World::Culprit World::deepest_overlap() const {
   Culprit c;
-  arena_->execute([&] {
-    c = persistent_pairs_ ? deepest_contact(state_, neighbours_, wall_contacts_)
-                          : deepest_contact(state_, pairs_, wall_contacts_);
-  });
+  arena_->execute([&] { c = deepest_contact_now(); });
   c.time = time();
   return c;
 }
 
 void World::watch_step(Real h) {
-  Culprit deepest = persistent_pairs_ ? deepest_contact(state_, neighbours_, wall_contacts_)
-                                      : deepest_contact(state_, pairs_, wall_contacts_);
+  Culprit deepest = deepest_contact_now();
   // The exact stepper's flows also report the deepest overlap inside the step (a whole impact may
   // fit in one); under doubling the islands pass theirs on in finish_round.
   if (config_.integrator.method == Method::exact && config_.integrator.control == Control::fixed)

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -233,8 +234,11 @@ class World {
   void add_particles();
   void evaluate_forces(Real h, bool force_rebuild);
   void evaluate_neighbour_forces(Real h, bool force_rebuild);
-  /// Makes pairs_ current from the persistent list when the last evaluation left it behind.
+  /// Makes pairs_ current from the persistent list when the last evaluation left it behind
+  /// (thread-safe: const readers of one World may call it concurrently).
   void sync_pair_contacts() const;
+  /// The deepest pair or wall contact of the current state (step_watch.h).
+  Culprit deepest_contact_now() const;
   /// After pairs_ was changed directly (a checkpoint, a particle added or removed): the persistent
   /// list is made anew from it at the next evaluation.
   void pair_contacts_changed() { neighbours_stale_ = persistent_pairs_; }
@@ -281,8 +285,9 @@ class World {
   mutable bool pairs_stale_ = false;   // neighbours_ is newer than pairs_
   bool persistent_pairs_ = false;      // fixed control, velocity Verlet
   bool adaptive_skin_ = false;         // persistent_pairs_ and no skin in the scene
-  Real adaptive_skin_cap_ = 0;         // [m]
+  // A chosen skin lasts the fastest particle about this many steps (evaluate_neighbour_forces).
   static constexpr Real skin_steps = 10;
+  mutable std::mutex pairs_mutex_;     // sync_pair_contacts: const readers may call it concurrently
   bool neighbours_stale_ = true;       // pairs_ is newer than neighbours_
   NeighbourContacts neighbours_;
   mutable std::vector<std::uint32_t> compact_scratch_;

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "broadphase/grid.h"
+#include "engine/forces.h"
 #include "engine/neighbour_contacts.h"
 #include "engine/step_watch.h"
 #include "engine/world.h"
@@ -64,13 +65,12 @@ TEST(NeighbourContacts, RebuildCarriesHistoryAndEndsWhatLeftTheCandidates) {
   ASSERT_EQ(candidates.pair_count(), 1u) << "only (0, 1) is a candidate";
   const PairContacts before = compact_list(s);
   NeighbourContacts nb;
-  CollisionSpectra spectra;
-  const Real ended = rebuild_neighbours(s, candidates, before, nb, &spectra);
-  // (0, 2) is no candidate: it ends with what it dissipated, work - elastic, and is booked once.
-  EXPECT_EQ(ended, before.work[1] - before.elastic[1]);
-  EXPECT_EQ(spectra.events(CollisionSpectra::ball_ball), 1u);
+  rebuild_neighbours(s, candidates, before, nb);
   ASSERT_EQ(nb.size(), 1u);
   EXPECT_EQ(nb.touching[0], touching_yes);
+  // (0, 2) is no candidate: it is left behind, to end with the next force loop.
+  EXPECT_EQ(nb.left_behind, (std::vector<std::uint32_t>{1}));
+  EXPECT_EQ(nb.left_dissipated, (std::vector<Real>{before.work[1] - before.elastic[1]}));
   // The compact list made back from the persistent one is (0, 1) with every carried field intact.
   PairContacts after;
   std::vector<std::uint32_t> scratch;
@@ -87,6 +87,15 @@ TEST(NeighbourContacts, RebuildCarriesHistoryAndEndsWhatLeftTheCandidates) {
   EXPECT_EQ(after.overlap[0], before.overlap[0]);
   EXPECT_TRUE(same_bits(after.force[0], before.force[0]));
   EXPECT_EQ(after.row_start, (std::vector<std::uint32_t>{0, 1, 1, 1}));
+  // The next force loop ends (0, 2) with what it dissipated, work - elastic, booked once.
+  ContactConfig contact;
+  contact.sliding_friction = 0.5;
+  const MaterialTable materials({MaterialConfig{}}, {contact}, Separation::overlap);
+  select_force_kernels(Separation::overlap, true, RollingKind::none).neighbour_forces(s, materials, nb, 1e-5, DashpotVelocity{});
+  CollisionSpectra spectra;
+  EXPECT_EQ(finish_ended_contacts(s, nb, before, &spectra), before.work[1] - before.elastic[1]);
+  EXPECT_EQ(spectra.events(CollisionSpectra::ball_ball), 1u);
+  EXPECT_TRUE(nb.left_behind.empty());
 }
 
 TEST(NeighbourContacts, AnIdleSlotStartsAsANewContact) {
@@ -99,7 +108,8 @@ TEST(NeighbourContacts, AnIdleSlotStartsAsANewContact) {
   none.parts = {true, false, true};
   none.index_rows(s.size());
   NeighbourContacts nb;
-  EXPECT_EQ(rebuild_neighbours(s, candidates, none, nb, nullptr), 0);
+  rebuild_neighbours(s, candidates, none, nb);
+  EXPECT_TRUE(nb.left_behind.empty());
   ASSERT_EQ(nb.size(), 1u);
   EXPECT_EQ(nb.touching[0], touching_no);
   EXPECT_EQ(nb.list.overlap[0], 0) << "overlap 0 marks the onset at the first evaluation";
@@ -110,6 +120,95 @@ TEST(NeighbourContacts, AnIdleSlotStartsAsANewContact) {
   std::vector<std::uint32_t> scratch;
   compact_touching(s, nb, compact, scratch);
   EXPECT_EQ(compact.size(), 0u);
+}
+
+// The compact path (update_pair_contacts, still step doubling's) is the oracle for how contacts end:
+// in one step, in one row, a contact parts but stays a candidate (its release step is booked) and
+// another leaves the candidates (it ends without one), around a contact that lasts. The persistent
+// path books the same dissipation and the same spectra, bit for bit.
+TEST(NeighbourContacts, ContactsEndAsTheCompactPathEndsThem) {
+  State s;
+  s.add(Vec3(0, 0, 0), Vec3::Zero(), Vec3::Zero(), 0.01, 1, 1, 0);
+  s.add(Vec3(0.0195, 0, 0), Vec3(0.1, 0, 0), Vec3::Zero(), 0.01, 1, 1, 0);
+  s.add(Vec3(0, 0.0195, 0), Vec3(0, 0.1, 0), Vec3::Zero(), 0.01, 1, 1, 0);
+  s.add(Vec3(0, 0, 0.0195), Vec3::Zero(), Vec3(0, 0, 1), 0.01, 1, 1, 0);
+  PairContacts before;
+  before.parts = {true, false, true};
+  before.resize(3);
+  for (std::size_t k = 0; k < 3; ++k) {
+    before.key[k] = pair_key(s.id[0], s.id[k + 1]);
+    before.i[k] = 0;
+    before.j[k] = static_cast<ParticleIndex>(k + 1);
+    before.tangential_spring[k] = Vec3(0, 0, 1e-6 * static_cast<Real>(k + 1));
+    before.mode[k] = 0;
+    before.books[k] = {0.3 + 0.1 * static_cast<Real>(k), 0.02, 0.5};
+    before.overlap[k] = 5e-4;
+    before.work[k] = 0.7 / static_cast<Real>(k + 3);
+    before.elastic[k] = 0.01 * static_cast<Real>(k + 1);
+    before.force[k] = Vec3(50, 0, 0);
+  }
+  before.index_rows(s.size());
+  // The step: 1 parts within the skin, 2 leaves the candidates, 3 stays in contact.
+  s.position[1] = Vec3(0.0205, 0, 0);
+  s.position[2] = Vec3(0, 0.03, 0);
+  broadphase::GridBroadphase grid;
+  broadphase::CandidatePairs candidates;
+  grid.find_pairs(s.position, s.radius, 0.002, candidates);
+  ASSERT_EQ(candidates.pair_count(), 2u) << "(0, 1) and (0, 3)";
+  ContactConfig contact;
+  contact.normal_stiffness = 1e5;
+  contact.sliding_friction = 0.5;
+  const MaterialTable materials({MaterialConfig{}}, {contact}, Separation::overlap);
+
+  PairContacts compact = before;
+  ContactWorkspace work;
+  CollisionSpectra compact_spectra;
+  const Real compact_ended = update_pair_contacts(
+      s, candidates, materials, compact, work,
+      [&](const PairContacts& old, const std::vector<std::uint64_t>& after) { compact_spectra.record_ended(old, after); });
+
+  NeighbourContacts nb;
+  CollisionSpectra persistent_spectra;
+  rebuild_neighbours(s, candidates, before, nb);
+  const ForceKernels kernels = select_force_kernels(Separation::overlap, true, RollingKind::none);
+  kernels.neighbour_forces(s, materials, nb, 1e-5, DashpotVelocity{});
+  const Real persistent_ended = finish_ended_contacts(s, nb, before, &persistent_spectra);
+
+  EXPECT_EQ(persistent_ended, compact_ended);
+  EXPECT_NE(compact_ended, (before.work[0] - before.elastic[0]) + (before.work[1] - before.elastic[1]))
+      << "the contact that parted within the skin has its release step booked";
+  EXPECT_EQ(persistent_spectra.events(CollisionSpectra::ball_ball), 2u);
+  EXPECT_EQ(persistent_spectra.events(CollisionSpectra::ball_ball), compact_spectra.events(CollisionSpectra::ball_ball));
+  EXPECT_EQ(persistent_spectra.dissipated(), compact_spectra.dissipated());
+  for (int q = 0; q < CollisionSpectra::quantity_count; ++q)
+    for (int b = 0; b < CollisionSpectra::bin_count; ++b)
+      EXPECT_EQ(persistent_spectra.energy(CollisionSpectra::ball_ball, CollisionSpectra::Quantity(q), b),
+                compact_spectra.energy(CollisionSpectra::ball_ball, CollisionSpectra::Quantity(q), b));
+  PairContacts now;
+  std::vector<std::uint32_t> scratch;
+  compact_touching(s, nb, now, scratch);
+  ASSERT_EQ(now.size(), 1u);
+  EXPECT_EQ(now.key[0], pair_key(s.id[0], s.id[3]));
+  EXPECT_TRUE(nb.left_behind.empty()) << "booked once";
+}
+
+// After a particle is removed the persistent list waits for the next step; the deepest overlap the
+// World reports meanwhile comes from the compact list, with valid ids.
+TEST(NeighbourContacts, DeepestOverlapBeforeTheNextStepAfterARemoval) {
+  const std::unique_ptr<World> world = World::load(scene("dense_bed.toml"), {"run.threads=2"});
+  for (int step = 0; step < 5; ++step) ASSERT_EQ(world->advance_sync_interval(), StepStatus::ok);
+  const Worst before = world->deepest_overlap();
+  ASSERT_GT(before.value, 0);
+  ASSERT_TRUE(world->remove_particle(before.particle));
+  const Worst after = world->deepest_overlap();
+  const Worst compact = deepest_contact(world->state(), world->pair_contacts(), world->wall_contacts());
+  EXPECT_EQ(after.value, compact.value);
+  EXPECT_EQ(after.particle, compact.particle);
+  EXPECT_EQ(after.partner, compact.partner);
+  EXPECT_NE(after.particle, before.particle);
+  EXPECT_TRUE(world->index_of(after.particle).has_value());
+  EXPECT_TRUE(world->index_of(after.partner).has_value());
+  EXPECT_EQ(world->advance_sync_interval(), StepStatus::ok);
 }
 
 // On the settled bed after some steps: the compact list holds exactly the overlapping pairs (found
