@@ -72,8 +72,9 @@ trap cleanup EXIT
 mkdir -p "$root"
 tar -C "$root" -xzf "$tarball"
 if ! git diff --quiet HEAD || [ -n "$(git status --porcelain --untracked-files=normal)" ]; then
-  echo "fresh_root: note: uncommitted changes are not tested (the clone holds HEAD, $(git rev-parse --short HEAD))"
+  echo "fresh_root: note: uncommitted changes are not tested (the clone holds HEAD)"
 fi
+commit=$(git rev-parse --short HEAD)
 git clone -q --no-local --no-hardlinks "$repo" "$root/root/dem"
 cp /etc/resolv.conf "$root/etc/resolv.conf"
 mkdir -p "$root/root/dem-logs"
@@ -116,7 +117,7 @@ if [ -f "$root/root/dem-logs/test.log" ]; then
   grep -E '^== |tests passed|tests failed|Disabled|\*\*\*(Failed|Timeout|Exception)' "$root/root/dem-logs/test.log" || true
 fi
 if [ ${#failed[@]} -gt 0 ]; then
-  echo "fresh_root: FAILED: ${failed[*]} (on $(git rev-parse --short HEAD); rerun with --keep to inspect)"
+  echo "fresh_root: FAILED: ${failed[*]} (on $commit; rerun with --keep to inspect)"
   exit 1
 fi
-echo "fresh_root: both README commands passed in a fresh bookworm root on $(git rev-parse --short HEAD)"
+echo "fresh_root: both README commands passed in a fresh bookworm root on $commit"
