@@ -135,9 +135,8 @@ inline PairNormal pair_normal(const State& s, ParticleIndex i, ParticleIndex j) 
 /// True when particles a and b overlap and so make a contact. Two immovable particles (inverse mass 0
 /// both) have no finite effective mass: never a contact.
 inline bool pair_touches(const State& s, ParticleIndex a, ParticleIndex b) {
-  if (s.inv_mass[a] == 0 && s.inv_mass[b] == 0) return false;
-  const Real reach = s.radius[a] + s.radius[b];
-  return (s.position[a] - s.position[b]).squaredNorm() < reach * reach;
+  const Real reach = s.radius[a] + s.radius[b];  // the distance first: most candidate pairs are apart
+  return (s.position[a] - s.position[b]).squaredNorm() < reach * reach && (s.inv_mass[a] != 0 || s.inv_mass[b] != 0);
 }
 
 /// How deep a pair contact is, as the step watch reports it: its overlap over the smaller radius.
