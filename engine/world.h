@@ -2,9 +2,10 @@
 // The World owns everything a run needs and advances it one sync interval at a time.
 // One sync interval (fixed control, velocity Verlet), top to bottom in world.cpp:
 //   kick (v += h/2 a)  ->  drift (x += h v)  ->  walls to t + h
-//   -> skin check, rebuild candidate pairs if any particle moved more than skin/2
-//   -> update contacts (history inherited by key) -> contact forces -> gather per particle
-//   -> kick (v += h/2 a) -> finite-state check
+//   -> skin check, rebuild candidate pairs if any particle moved more than skin/2 (and with them the
+//      persistent pair list, history inherited by key: neighbour_contacts.h)
+//   -> pair forces slot by slot (contacts start and end in place) -> wall contacts and forces
+//   -> gather per particle -> kick (v += h/2 a) -> finite-state check
 // All parallel loops run inside the World's own TaskArena (engine/parallel.h: oneTBB, or std::threads
 // in the ThreadSanitizer build), so an embedding program keeps control of its own threads. Results
 // are bitwise identical for any thread count.
