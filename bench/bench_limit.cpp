@@ -1,4 +1,4 @@
-// An estimate of this machine's limit per particle-step on the dense bed (issue 6): the physics of
+// An estimate of this machine's limit per particle-step on the dense bed: the physics of
 // scenes/dense_bed.toml (linear spring-dashpot in the overlap convention, tangential spring with a
 // Coulomb cap by LIGGGHTS' rule, gravity, the box's six planes, velocity Verlet at dt = 7.27e-6 s) in
 // the least work a step can do, on one thread:

@@ -1,4 +1,4 @@
-// Free flight against dense contact at N = 1e3, 1e4, 1e5 (issue 6, part 2): whole sync intervals for
+// Free flight against dense contact at N = 1e3, 1e4, 1e5: whole sync intervals for
 // fixed and doubling control, both steppers, 1 and 2 threads; and the stages of a Verlet step timed
 // one by one through the engine's own stage functions. bench/workloads.py turns the JSON into the
 // report in docs/workloads/.

@@ -1,5 +1,5 @@
 #pragma once
-// What every bench program shares (issue 6, part 4), read from the environment once per process:
+// What every bench program shares, read from the environment once per process:
 //
 //   DEM_BENCH_SLOWDOWN=<name substring>:<fraction>   (e.g. grid_build_and_pairs/10000:0.25)
 //       A hook to prove bench/regress catches a slowdown: every benchmark whose name contains the

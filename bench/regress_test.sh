@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The ctest cases of bench/regress (issue 6, part 4), on its --quick subset; run serially:
+# The ctest cases of bench/regress, on its --quick subset; run serially:
 #   regress_test.sh baseline BUILD DIR          a fresh run of BUILD becomes DIR/baseline.json
 #   regress_test.sh fresh BUILD DIR             another fresh run of the same build passes (exit code 0;
 #                                               one rerun when the first flags a regression, and a

@@ -1,6 +1,6 @@
 #pragma once
 // The two benchmark workloads of bench/workloads.h at any particle count N, for the cost-against-N
-// report (issue 6, part 2). Physics, material and step are those of benchmark_config; only the
+// report. Physics, material and step are those of benchmark_config; only the
 // particles and the box change:
 //  - N below the shipped 20,000: the N particles nearest the box's origin corner, ranked by how far
 //    their far side reaches along x, y and z, each as a fraction of the box (of the bed's height for

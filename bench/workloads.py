@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Free flight against dense contact: the report of issue 6, part 3.
+"""Free flight against dense contact: the report of bench_workloads, as tables and a plot.
 
 Runs bench_workloads with --benchmark_format=json (or reads a saved JSON with --json) and writes to
 docs/workloads/ (or --out):

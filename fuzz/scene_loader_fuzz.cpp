@@ -1,4 +1,4 @@
-// libFuzzer target for the scene loader (issue 8, item 3). Feeds each input to load_scene_text as the
+// libFuzzer target for the scene loader. Feeds each input to load_scene_text as the
 // text of a scene file. Bad input must come back as dem::InputError, the one exception the loader
 // documents; anything else (a crash, a sanitizer report, another exception, a hang, a runaway
 // allocation) is a finding. Built and run by scripts/fuzz.sh.

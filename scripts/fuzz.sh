@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fuzzes the scene loader (issue 8, item 3): installs clang and its runtime if missing, builds
+# Fuzzes the scene loader: installs clang and its runtime if missing, builds
 # fuzz/scene_loader_fuzz (libFuzzer, AddressSanitizer, UndefinedBehaviorSanitizer) in build-fuzz and
 # runs it for a bounded time on the shipped scenes, the malformed scenes of tests/scenes/bad and
 # fuzz/corpus, with new inputs kept in build-fuzz/corpus. Exits non-zero on any finding (crash,

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The sanitizer stages of CI (reliability issue, item 6): installs clang and its runtime if missing,
+# The sanitizer stages of CI: installs clang and its runtime if missing,
 # configures a clang build in its own folder, builds only the test executables its ctest label needs
 # and runs them, failing on any sanitizer report. Prints the time of each step.
 #   bash scripts/sanitize.sh address   AddressSanitizer + UndefinedBehaviorSanitizer (build-asan):

@@ -1,4 +1,4 @@
-// Mesh walls (issue 7): a triangle mesh as a wall with prescribed motion, against the walls it can
+// Mesh walls: a triangle mesh as a wall with prescribed motion, against the walls it can
 // stand in for (a plane, a solid box), through the World with every stepper and control, and loaded
 // from an STL file named by a scene.
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
 // World::memory_bytes (world_memory.cpp): it counts what is allocated (capacities, scratch included),
-// and the dense bed stays within its budget of bytes per particle (issue 6).
+// and the dense bed stays within its budget of bytes per particle.
 #include <gtest/gtest.h>
 
 #include <iostream>
