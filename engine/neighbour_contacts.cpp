@@ -21,11 +21,11 @@ namespace {
 // slots as j are collected here, walking the slots in order.
 void index_reverse_slots(std::size_t n, NeighbourContacts& nb) {
   const PairContacts& c = nb.list;
-  nb.reverse_start.assign(n + 1, 0);
-  for (std::size_t k = 0; k < c.size(); ++k) ++nb.reverse_start[c.j[k] + 1];
-  for (std::size_t p = 0; p < n; ++p) nb.reverse_start[p + 1] += nb.reverse_start[p];
-  resize_with_headroom(nb.reverse_slot, c.size());
   std::vector<std::uint32_t>& cursor = nb.cursor;
+  cursor.assign(n, 0);
+  for (std::size_t k = 0; k < c.size(); ++k) ++cursor[c.j[k]];
+  exclusive_scan(cursor, nb.reverse_start);
+  resize_with_headroom(nb.reverse_slot, c.size());
   cursor.assign(nb.reverse_start.begin(), nb.reverse_start.end() - 1);
   for (std::size_t k = 0; k < c.size(); ++k) nb.reverse_slot[cursor[c.j[k]]++] = static_cast<std::uint32_t>(k);
 }
@@ -61,14 +61,12 @@ void rebuild_neighbours(const State& s, const broadphase::CandidatePairs& candid
       list.j[k] = b;
       const std::uint64_t key = pair_key(s.id[a], s.id[b]);
       while (old < old_end && contacts.key[old] < key) ++old;
+      reset_neighbour(nb, k);
       if (old < old_end && contacts.key[old] == key) {
-        reset_neighbour(nb, k);
         PairContacts::for_each_carried(list.parts, [&](auto field) { (list.*field)[k] = (contacts.*field)[old]; });
         nb.inherited[old] = 1;
         nb.touching[k] = touching_yes;
         ++old;
-      } else {
-        reset_neighbour(nb, k);
       }
     }
   });
@@ -85,9 +83,9 @@ void rebuild_neighbours(const State& s, const broadphase::CandidatePairs& candid
     nb.left_dissipated.push_back(contacts.work[k] - contacts.elastic[k]);
   }
   if (nb.left_behind.empty()) return;
-  nb.left_start.assign(n + 1, 0);
-  for (std::uint32_t k : nb.left_behind) ++nb.left_start[contacts.i[k] + 1];
-  for (std::size_t a = 0; a < n; ++a) nb.left_start[a + 1] += nb.left_start[a];
+  nb.cursor.assign(n, 0);
+  for (std::uint32_t k : nb.left_behind) ++nb.cursor[contacts.i[k]];
+  exclusive_scan(nb.cursor, nb.left_start);
 }
 
 Real finish_ended_contacts(const State& s, NeighbourContacts& nb, const PairContacts& left_source,

@@ -109,11 +109,7 @@ void World::evaluate_forces(Real h, bool force_rebuild) {
   };
   ended_dissipation_ += update_pair_contacts(state_, candidates_, materials_, pairs_, workspace_, spectra_ ? book_ended : EndedPairsHook{});
   build_pair_adjacency(n, pairs_, adjacency_);
-  // The lists give the same contacts as testing every wall, so when they are rebuilt changes nothing.
-  if (use_wall_lists_ && !wall_lists_.valid(state_, walls_)) wall_lists_.build(state_, walls_, skin_);
-  ended_dissipation_ += update_wall_contacts(state_, walls_, materials_, wall_contacts_, workspace_,
-                                             adjacency_.wall_start, use_wall_lists_ ? &wall_lists_ : nullptr);
-  if (spectra_) spectra_->record_ended(workspace_.walls, wall_contacts_);
+  update_walls(skin_);
   const DashpotVelocity dashpot = dashpot_velocity();
   kernels_.pair_forces(state_, materials_, pairs_, h, dashpot);
   kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, h, dashpot);
@@ -144,15 +140,18 @@ void World::evaluate_neighbour_forces(Real h, bool force_rebuild) {
   const DashpotVelocity dashpot = dashpot_velocity();
   kernels_.neighbour_forces(state_, materials_, neighbours_, h, dashpot);
   ended_dissipation_ += finish_ended_contacts(state_, neighbours_, pairs_, spectra_.get());
-  // The walls as in evaluate_forces (their contacts are rebuilt every step), but the lists take the
-  // candidates' skin, which may be chosen from the speeds.
-  if (use_wall_lists_ && !wall_lists_.valid(state_, walls_)) wall_lists_.build(state_, walls_, candidate_skin_);
-  ended_dissipation_ += update_wall_contacts(state_, walls_, materials_, wall_contacts_, workspace_,
-                                             adjacency_.wall_start, use_wall_lists_ ? &wall_lists_ : nullptr);
-  if (spectra_) spectra_->record_ended(workspace_.walls, wall_contacts_);
+  update_walls(candidate_skin_);  // the lists take the skin chosen from the speeds, where it is
   kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, h, dashpot);
   gather_neighbour_forces(state_, neighbours_, wall_contacts_, adjacency_.wall_start, kernels_.uses_rotation,
                           config_.model.dimension);
+}
+
+void World::update_walls(Real list_margin) {
+  // The lists give the same contacts as testing every wall, so when they are rebuilt changes nothing.
+  if (use_wall_lists_ && !wall_lists_.valid(state_, walls_)) wall_lists_.build(state_, walls_, list_margin);
+  ended_dissipation_ += update_wall_contacts(state_, walls_, materials_, wall_contacts_, workspace_,
+                                             adjacency_.wall_start, use_wall_lists_ ? &wall_lists_ : nullptr);
+  if (spectra_) spectra_->record_ended(workspace_.walls, wall_contacts_);
 }
 
 void World::sync_pair_contacts() const {

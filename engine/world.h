@@ -235,6 +235,9 @@ class World {
   void add_particles();
   void evaluate_forces(Real h, bool force_rebuild);
   void evaluate_neighbour_forces(Real h, bool force_rebuild);
+  /// Wall contacts anew from the current state (history by key), the ended ones booked; the wall
+  /// lists, when rebuilt, reach `list_margin` [m] beyond each particle.
+  void update_walls(Real list_margin);
   /// Makes pairs_ current from the persistent list when the last evaluation left it behind
   /// (thread-safe: const readers of one World may call it concurrently).
   void sync_pair_contacts() const;
