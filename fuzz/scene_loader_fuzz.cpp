@@ -67,6 +67,7 @@ bool generates_too_much(const std::string& text) {
     }
     const double a = static_cast<double>((*charge)["max_attempts"].value_exact<std::int64_t>().value_or(1000));
     if (!(n <= static_cast<double>(max_generated))) return true;  // NaN and huge included
+    n = std::max(n, 0.0);  // a negative filling or count places nothing (the loader rejects it)
     count += static_cast<std::int64_t>(n);
     tries += static_cast<std::int64_t>(n * std::clamp(a, 0.0, static_cast<double>(max_placement_tries + 1)));
   }
