@@ -1,4 +1,4 @@
-// Fixed-step throughput of whole sync intervals on the two benchmark workloads (shared/data), with
+// Fixed-step throughput of whole sync intervals on the two benchmark workloads (scenes/data), with
 // 1 and 2 threads. The world is built outside the timed loop; the state hash is printed beside each
 // timing so a speed-up that changes results shows at once. A fixed iteration count makes the hashes
 // of the 1- and 2-thread runs comparable: they must be equal. bench/harness.h: the slowdown hook,

@@ -1,4 +1,4 @@
-// The exact stepper: what the coefficient table saves per contact flow (PHYSICS.md 3.2), and whole
+// The exact stepper: what the coefficient table saves per contact flow (docs/physics.md 5.2), and whole
 // sync intervals of the frictionless dense bed with 1 and 2 threads (state hash beside each timing).
 // bench/harness.h: the slowdown hook, smoke runs and BM_Calibration.
 #include <benchmark/benchmark.h>

@@ -1,9 +1,9 @@
 #!/usr/bin/python3
-"""The seed paper's experiment (Zhang & Whiten 2001; PHYSICS.md 6.8), reproduced with `dem`.
+"""The seed paper's experiment (Zhang & Whiten 2001; docs/physics.md 8.8), reproduced with `dem`.
 
 Runs the seed slope (scenes/seed_slope.toml) with fixed steps of 0.1, 0.01 and 0.001 s and with step
 doubling at a few tolerances, for each stepper that handles the scene, against a converged reference
-(a fixed step of 1e-5 s, checked against 2e-5 s) and the PHYSICS.md 6.8 oracle. Writes
+(a fixed step of 1e-5 s, checked against 2e-5 s) and the docs/physics.md 8.8 oracle. Writes
 seed_experiment.md (the table) and two plots like the paper's figures 1 and 2 (trajectory; error
 against time) into the output folder.
 
@@ -22,7 +22,7 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENE = os.path.join(ROOT, "scenes", "seed_slope.toml")
-# PHYSICS.md 6.8, sphere, standard rolling mode: rolling at t, v, s; stop t, stop s.
+# docs/physics.md 8.8, sphere, standard rolling mode: rolling at t, v, s; stop t, stop s.
 ORACLE = {"roll_t": 0.84869, "roll_v": 5.9222, "roll_s": 6.7565, "stop_t": 5.1040, "stop_s": 19.357}
 MASS, RADIUS, KAPPA, DELTA0 = 4.0, 1.0, 0.4, 0.019219
 UNTIL = 8.0
@@ -141,7 +141,7 @@ def main():
                      f"{c['force_evaluations']} | {error_text} | {rel('roll_t')} | {rel('stop_t')} | {rel('stop_s')} |")
     table = "\n".join(lines)
     with open(os.path.join(args.out, "seed_experiment.md"), "w") as f:
-        f.write("Seed slope (PHYSICS.md 6.8, sphere, standard rolling mode), 8 s simulated. Oracle: rolling at "
+        f.write("Seed slope (docs/physics.md 8.8, sphere, standard rolling mode), 8 s simulated. Oracle: rolling at "
                 f"t = {ORACLE['roll_t']} s, stop at t = {ORACLE['stop_t']} s, s = {ORACLE['stop_s']} m. "
                 f"Reference: Verlet at a fixed dt = 1e-5 s (its difference from 2e-5 s, {reference_error:.2g} m, bounds "
                 "what the table can resolve). Event times are "

@@ -1,5 +1,5 @@
 #pragma once
-// The two benchmark workloads of shared/data/README.md, built in code from the shipped CSVs:
+// The two benchmark workloads of scenes/data/README.md, built in code from the shipped CSVs:
 // a settled bed of 20,000 steel spheres and the same spheres in free flight at 0.5% solid fraction.
 // Parameters exactly as documented there (overlap separation, gamma_n, gamma_t = gamma_n / 2, mu 0.5,
 // skin 2 mm, dt 7.27e-6 s).

@@ -1,5 +1,5 @@
 #pragma once
-// The parallel backend of the whole project (STYLE.md, "Deterministic parallelism"), and the small
+// The parallel backend of the whole project (docs/design.md, Determinism), and the small
 // helpers the broadphase implementations share. Every loop of the engine and of the broadphase runs
 // through here, inside the caller's TaskArena (the World's), so a thread count is set in one place.
 //

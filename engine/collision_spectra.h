@@ -1,5 +1,5 @@
 #pragma once
-// Collision energy spectra (PHYSICS.md 7): per contact event (a contact from its start to its end)
+// Collision energy spectra (docs/physics.md 7.4): per contact event (a contact from its start to its end)
 // the impact energy m* v_n^2 / 2 at its start and the energy its normal spring-dashpot and its
 // tangential and rolling parts dissipated, binned logarithmically, particle-particle ("ball-ball")
 // and particle-wall ("ball-liner") apart. An event is booked when its contact ends; contacts still

@@ -1,6 +1,6 @@
 #pragma once
 // Colouring of the contact graph: no two contacts of one colour share a particle, so the contacts of
-// a colour can be processed in parallel while each particle is touched once (PHYSICS.md 3.4, scheme
+// a colour can be processed in parallel while each particle is touched once (docs/physics.md 5.4, scheme
 // D; 5, determinism). Greedy in ascending contact order (the sorted pair-key order), so the colours
 // depend on the contact list only, never on threads. Uses at most 2 * max_degree - 1 colours.
 // Serial: O(contacts x colours) with a 64-bit mask per particle for the first 64 colours.

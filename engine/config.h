@@ -11,19 +11,19 @@
 
 namespace dem {
 
-/// When a normal contact stops pushing (PHYSICS.md 1.1).
+/// When a normal contact stops pushing (docs/physics.md 2.1).
 enum class Separation {
   force_zero,  ///< F_n = max(0, k delta + c delta_dot): no force after the force-zero instant (default)
   overlap,     ///< force until delta = 0, may turn attractive (LAMMPS gran/hooke convention)
 };
 
-/// When the rolling-resistance torque acts (PHYSICS.md 1.4).
+/// When the rolling-resistance torque acts (docs/physics.md 2.4).
 enum class RollingMode {
   standard,  ///< whenever the relative rolling velocity is non-zero, sliding included (default)
   seed,      ///< only while the contact is not sliding (Zhang & Whiten 2001)
 };
 
-/// How a damping value is given (PHYSICS.md 1.2). Converted per contact with its effective mass.
+/// How a damping value is given (docs/physics.md 2.2). Converted per contact with its effective mass.
 enum class DampingKind {
   restitution,    ///< coefficient of restitution e in (0, 1], converted with the separation convention
   damping_ratio,  ///< zeta, dimensionless: c = 2 zeta sqrt(m k)

@@ -1,6 +1,6 @@
 #pragma once
 // The linear spring-dashpot contact law with tangential spring-slider and rolling resistance
-// (PHYSICS.md 1.1, 1.3, 1.4, 1.5). Pure functions: kinematics, constants and history in; force,
+// (docs/physics.md 2.1, 2.3, 2.4, 2.5). Pure functions: kinematics, constants and history in; force,
 // rolling torque and new history out. No loops, allocation, I/O or throwing here. The law is chosen
 // once per run through its template parameters, so the force loop has no per-contact switches.
 #include <algorithm>
@@ -15,7 +15,7 @@ namespace dem {
 /// Which rolling-resistance variant a run uses; `none` skips all rolling work.
 enum class RollingKind { none, standard, seed };
 
-/// Mode bits of a contact (PHYSICS.md 1.5): sliding (else stick) and rolling (else static hold).
+/// Mode bits of a contact (docs/physics.md 2.5): sliding (else stick) and rolling (else static hold).
 enum ContactMode : std::uint8_t { mode_sliding = 1, mode_rolling = 2 };
 
 /// History carried by a contact from step to step.
@@ -23,7 +23,7 @@ struct ContactHistory {
   Vec3 tangential_spring = Vec3::Zero();  // xi [m], in the tangent plane
   Vec3 rolling_spring = Vec3::Zero();     // theta [rad], perpendicular to the normal
   std::uint8_t mode = 0;                  // ContactMode bits
-  // Energy books of this contact, for collision energy spectra (PHYSICS.md 7):
+  // Energy books of this contact, for collision energy spectra (docs/physics.md 7.4):
   Real normal_work = 0;      // work of the particles on the normal spring-dashpot since it formed [J]
   Real normal_elastic = 0;   // energy in the normal spring at the last evaluation [J]
   Real impact_energy = -1;   // m* v_n^2 / 2 at its first evaluation [J]; negative until then
@@ -82,7 +82,7 @@ inline Vec3 kinetic_response(Vec3& spring, const Vec3& rate, const Vec3& elastic
   return response;
 }
 
-/// Tangential spring-dashpot-slider (PHYSICS.md 1.3, 1.5): while stuck, the spring xi advances by
+/// Tangential spring-dashpot-slider (docs/physics.md 2.3, 2.5): while stuck, the spring xi advances by
 /// u_t h and the force is -k xi - c u_t; while sliding, F_t = -mu F_n along the slip.
 ///  - Stick -> slide when the spring force exceeds mu_s F_n, or when the contact slips so fast that
 ///    the dashpot alone would need more than mu_s F_n (a sphere launched sliding slides at once, not
@@ -113,7 +113,7 @@ inline Vec3 spring_slider(Vec3& spring, std::uint8_t& mode, const Vec3& rate, co
   return kinetic_response(spring, rate, elastic, k, kinetic_limit);
 }
 
-/// Rolling resistance (PHYSICS.md 1.4, 1.5): a static hold by a rotational spring-dashpot (Ai et al.
+/// Rolling resistance (docs/physics.md 2.4, 2.5): a static hold by a rotational spring-dashpot (Ai et al.
 /// 2011 model C) and, once rolling, the constant kinetic torque -mu_r R* F_n along omega_r.
 /// `inertia` is I* of the relative rotation [kg m^2].
 ///  - Static -> rolling when the spring torque exceeds the static limit, or when the contact turns so
@@ -125,11 +125,11 @@ inline Vec3 spring_slider(Vec3& spring, std::uint8_t& mode, const Vec3& rate, co
 ///    mu_r < mu_rs).
 ///  - Only the spring torque is compared with the static limit, not spring plus dashpot: a suddenly
 ///    loaded spring-dashpot transmits more than its load for a while (even critically damped), which
-///    broke holds that the rigid contact keeps (a sphere set down on a slope, PHYSICS.md 6.4). The
+///    broke holds that the rigid contact keeps (a sphere set down on a slope, docs/physics.md 8.4). The
 ///    viscous torque is bounded on its own by the static limit.
 /// Stability: forces see the half-step velocity, so a dashpot c alone maps omega_r to
 /// (1 - c h / I*) omega_r per step; c is capped at I*/h (deadbeat for one contact); several static
-/// contacts on one particle add their c h / I (stable below 2), like the normal dashpots (PHYSICS.md 2).
+/// contacts on one particle add their c h / I (stable below 2), like the normal dashpots (docs/physics.md 4.2).
 /// `damped_rate` is the rolling velocity the dashpot sees (ContactKinematics).
 inline Vec3 rolling_spring(Vec3& spring, std::uint8_t& mode, const Vec3& rate, const Vec3& damped_rate, Real k, Real c,
                            Real inertia, Real static_limit, Real kinetic_limit, Real h) {

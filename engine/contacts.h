@@ -22,7 +22,7 @@
 namespace dem {
 
 /// Parts of a pair contact that only some runs use. A list stores only the parts its run needs
-/// (DESIGN.md, Models: what is not declared is not computed); a missing part reads as its start
+/// (docs/design.md, Models: what is not declared is not computed); a missing part reads as its start
 /// value (zero springs, no books), which is all it would ever hold.
 struct ContactParts {
   bool friction = true;  // tangential spring
@@ -31,7 +31,7 @@ struct ContactParts {
   bool keyed = true;     // key and i per contact (a persistent list knows i from its row, and no key)
 };
 
-/// The energy books of ContactHistory (PHYSICS.md 7), stored apart: only collision spectra read them.
+/// The energy books of ContactHistory (docs/physics.md 7.4), stored apart: only collision spectra read them.
 struct EnergyBooks {
   Real normal_work = 0;     // [J]
   Real normal_elastic = 0;  // [J]

@@ -1,4 +1,4 @@
-// Closed forms of PHYSICS.md 1.2. Near zeta = 1 the force-zero branches meet continuously; the
+// Closed forms of docs/physics.md 2.2. Near zeta = 1 the force-zero branches meet continuously; the
 // under- and over-damped formulas are used up to 1 -+ 1e-6 and the critical values in between.
 #include "engine/damping.h"
 

@@ -1,6 +1,6 @@
 #pragma once
 // Restitution, damping ratio and contact duration of the linear spring-dashpot for an isolated pair
-// without body force, in both separation conventions (PHYSICS.md 1.2). Used to convert scene input,
+// without body force, in both separation conventions (docs/physics.md 2.2). Used to convert scene input,
 // by `dem check`, and as test oracles.
 #include "engine/config.h"
 

@@ -125,7 +125,7 @@ Piece piece_of(const TangentialConstants& c, const Planar& y, std::uint8_t mode)
   return p;
 }
 
-/// The generator [[A, B], [0, 0]] of the piece (PHYSICS.md 1.3, 1.4 in planar form; see the header); the
+/// The generator [[A, B], [0, 0]] of the piece (docs/physics.md 5.6; see the header); the
 /// kinetic force and torque follow the normal force, `start` at the piece's start and `slope` per second.
 Mat generator(const TangentialConstants& c, const Piece& p, const Vec2& g, const Limits& start, const Limits& slope) {
   Mat m = Mat::Zero();
@@ -202,7 +202,7 @@ Planar apply(const Mat& e, const Planar& y, Real t) {
 
 /// The exact flow of one piece: y at time start + t from y at time `start` (times since the piece's
 /// start, where its kinetic ramps begin). Without rolling resistance each direction is closed-form: in
-/// stick the slip u = v - a_i w_i - a_j w_j and the spring xi are the scalar oscillator of PHYSICS.md 3.1
+/// stick the slip u = v - a_i w_i - a_j w_j and the spring xi are the scalar oscillator of docs/physics.md 5.1
 /// (omega^2 = k_t / m_t, 2 beta = c_t / m_t, forcing g), and v, w_i, w_j, x follow from the spring-dashpot
 /// force's impulse and its integral, both read off the change of u and xi; in slide the kinetic force
 /// is a known ramp, so the motion is a polynomial. With rolling resistance (two coupled channels) it is

@@ -1,10 +1,10 @@
 #pragma once
-// The exact tangential and rolling channel of one contact between a particle i and a body j, PHYSICS.md
-// 1.3-1.5 and 3.1: the spring-slider with static and sliding friction and the rolling resistance of
-// contact_law.h (Ai et al. model C static hold, constant kinetic torque), advanced as a piecewise linear
-// ODE whose pieces are its modes, split at the mode switches found as roots. j is a wall (infinite
-// mass: inverse inertia 0, its spin 0 in its own frame) or a second particle (the velocity is then the
-// relative velocity of the centres and the inverse mass 1/m*).
+// The exact tangential and rolling channel of one contact between a particle i and a body j
+// (docs/physics.md 2.3-2.5 and 5.6): the spring-slider with static and sliding friction and the rolling
+// resistance of contact_law.h (Ai et al. model C static hold, constant kinetic torque), advanced as a
+// piecewise linear ODE whose pieces are its modes, split at the mode switches found as roots. j is a wall
+// (infinite mass: inverse inertia 0, its spin 0 in its own frame) or a second particle (the velocity is
+// then the relative velocity of the centres and the inverse mass 1/m*).
 //
 // In the tangent plane, with basis e1 and e2 = n x e1, the motion splits into two identical planar
 // problems (direction 1 couples the slip along e1 with the spins about e2, direction 2 the slip along
@@ -18,12 +18,12 @@
 // In every mode this is y' = A y + b with constant A and b, propagated exactly by the exponential of
 // the 10x10 matrix [[A t, B t], [0, R t]] (both directions share A; B holds their forcings, constant and
 // growing with time, R makes the ramp). In stick with
-// kinetic rolling it is the scalar oscillator of PHYSICS.md 3.1 in u with the tangential mass m_t,
+// kinetic rolling it is the scalar oscillator of docs/physics.md 5.1 in u with the tangential mass m_t,
 // 1/m_t = 1/m + a_i^2/I_i + a_j^2/I_j; with the static hold it is that oscillator coupled to the rolling
 // spring. Without rolling resistance the pieces use those closed forms (the scalar propagator in stick,
 // a polynomial in slide) instead of the exponential, which then only checks them (TangentialFlow). The moments of F and M on i and j are equal and opposite about the contact point, so the
 // flow keeps the angular momentum of the pair (to round-off of the exponential).
-// Switches (PHYSICS.md 1.5), each a root of a smooth function of time along the exact flow:
+// Switches (docs/physics.md 2.5), each a root of a smooth function of time along the exact flow:
 //   stick -> slide   |k_t xi| or |c_t u| reaches mu_s F_n (the law's conditions), or the static force
 //                    |k_t xi + c_t u| itself does (the law caps it there; a flow slides instead);
 //   slide -> stick   the slip u reverses against its direction at the start of the slide;
@@ -33,7 +33,7 @@
 //   seed mode: no rolling torque while sliding (the rolling spring is released).
 // Roots are bracketed by sampling at a quarter of the fastest active period, then narrowed to
 // round-off (regula falsi with the Illinois rule); the flow continues in the new mode from the root.
-// Approximations (stated as PHYSICS.md 3.3 asks): the normal force F_n is linear in time and the lever
+// Approximations (docs/physics.md 5.7): the normal force F_n is linear in time and the lever
 // arm a constant over a call (the flat wall flow calls this per sub-step with the mean F_n of the exact
 // normal flow, so the friction and rolling impulses of a sub-step without switch are exact: mu times the
 // normal impulse; the pair and cylinder flows, tangential_kick.h, with a linear fit to it);

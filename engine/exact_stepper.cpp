@@ -162,14 +162,14 @@ struct Stretch {
   NormalState end;
   Real time;  // [s]
   bool released;
-  Real forcing = 0;  // the constant forcing of the normal flow, a of PHYSICS.md 3.1 [m/s^2] (contact_stretch)
+  Real forcing = 0;  // the constant forcing of the normal flow, a of docs/physics.md 5.1 [m/s^2] (contact_stretch)
 };
 
 /// The exact normal flow from a pushing state (or one put on the onset condition) over at most `limit`
 /// under constant forcing a, cut at the first release. With coefficients for exactly `limit`
 /// (`whole_step`: the table's for a stretch over the whole flow, or contact_stretch's own for a short
 /// one), advance_normal decides whether the contact releases within it at all (it may skip the search,
-/// PHYSICS.md 3.2); the release time itself is searched here.
+/// docs/physics.md 5.2); the release time itself is searched here.
 Stretch push(const NormalOscillator& o, Separation sep, Real a, const NormalState& s, Real limit,
              const PropagatorCoefficients* whole_step) {
   const auto at = [&](const PropagatorCoefficients& c) {
@@ -253,7 +253,7 @@ Stretch contact_stretch(ExactInteraction& k, Separation sep, const Radial& x, Po
     if (std::abs(next - a) <= 4 * std::numeric_limits<Real>::epsilon() * (std::abs(gravity) + std::abs(centrifugal)))
       break;
     if (whole_step && !s.released) {
-      // No event within the step: the end is affine in the forcing (the Gamma column of PHYSICS.md
+      // No event within the step: the end is affine in the forcing (the Gamma column of docs/physics.md
       // 3.1), so the new forcing needs no new flow.
       s.end.delta += whole_step->gamma1 * (next - a);
       s.end.rate += whole_step->gamma2 * (next - a);
@@ -315,7 +315,7 @@ Real normal_force(const ExactInteraction& k, const NormalState& n) {
 /// impulse J over the piece (m* times the forcing's change of delta' minus its actual change). The kicks
 /// see the normal force of the first and the second half of the piece as lines through its values at
 /// the start, the middle and the end (the middle from Simpson's rule on J), scaled so that together they
-/// carry J: a slide's friction impulse is mu J, exact (PHYSICS.md 3.3), and the static limits follow the
+/// carry J: a slide's friction impulse is mu J, exact (docs/physics.md 5.7), and the static limits follow the
 /// force to second order. The approximation is the splitting, second order in the piece: the geometry
 /// (normal, lever arms) is frozen in each kick. `elapsed`: time of the piece's start from the start of
 /// the flow [s]. The kick changes only the velocity across the normal (and the spins), so the normal
@@ -526,7 +526,7 @@ Vec3 flat_wall_flow(State& s, const Walls& walls, ExactInteraction& k, const Exa
   s.angular_velocity[p] = w_wall + ts.spin;
   // The wall's spin against the contact's angular impulse (its translation's work is booked by wall_flow).
   k.work += w_wall.dot(s.angular_velocity[p] - spin_before) / s.inv_inertia[p];
-  // The record lasts while the geometric overlap does (PHYSICS.md 1.1).
+  // The record lasts while the geometric overlap does (docs/physics.md 2.1).
   if (!(after.delta > 0)) k.history = ContactHistory{};
   return v_frame;
 }

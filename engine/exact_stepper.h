@@ -1,5 +1,5 @@
 #pragma once
-// The exact (table-free, closed-form) stepper for frictionless contacts, PHYSICS.md 3.3 and 3.4.
+// The exact (closed-form) stepper, docs/physics.md 5.3-5.7.
 // One step of h: every pair or wall contact that can touch within the step is an "interaction";
 // interactions are coloured so no two of a colour share a particle; then scheme (D), a symmetric
 // (Strang) composition of exact pair flows:
@@ -10,7 +10,7 @@
 //                                           M_k* = P_k(h/2) o F_ij(-h/2)
 // Exact at any h: free flight, a head-on pair, a contact with a flat wall (the drifts cancel:
 // P(h/2) P(h/2) = P(h)), and whether an interaction's particles touch at all: onsets are found on the
-// true 3-D path, so a near miss stays a miss. Approximations, stated as PHYSICS.md 3.4 asks:
+// true 3-D path, so a near miss stays a miss. Approximations (docs/physics.md 5.7):
 //  - several simultaneous contacts are coupled only through the splitting (second order in the
 //    coupling, symplectic and time-reversible when undamped);
 //  - an oblique pair, and a particle inside a cylinder wall, move in polar form about the partner (the
@@ -63,7 +63,7 @@
 
 namespace dem {
 
-/// A mode switch of a wall contact found inside a step (PHYSICS.md 1.5), with the particle's state at it.
+/// A mode switch of a wall contact found inside a step (docs/physics.md 2.5), with the particle's state at it.
 struct ExactModeEvent {
   Real time = 0;                          // [s]
   ParticleIndex particle = 0;
@@ -133,7 +133,7 @@ struct ExactWorkspace {
   Real wall_work = 0;            // work done by moving walls on the particles, summed over steps [J]
   Worst deepest;                 // the deepest overlap inside the last step, over the smaller radius
   int max_retries = 8;           // redos of one step before a missed contact is accepted (and counted)
-  // Coefficient table (PHYSICS.md 3.2): one class per distinct (omega0, beta), built on demand for
+  // Coefficient table (docs/physics.md 5.2): one class per distinct (omega0, beta), built on demand for
   // the step h/2 in use; cleared when the step changes or the classes pass table_capacity (a wide
   // size distribution makes nearly every pair a class of its own).
   std::map<std::pair<std::uint64_t, std::uint64_t>, std::uint32_t> class_of;

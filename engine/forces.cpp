@@ -60,7 +60,7 @@ struct SurfaceMotion {
   Vec3 rolling = Vec3::Zero();
 };
 
-/// Contact-point velocities of a pair: omega_i x (-a_i n) - omega_j x (a_j n) (PHYSICS.md 1.3).
+/// Contact-point velocities of a pair: omega_i x (-a_i n) - omega_j x (a_j n) (docs/physics.md 1.2).
 template <bool Rotation>
 SurfaceMotion pair_surface(const Motion& a, const Motion& b, Real arm_a, Real arm_b, const Vec3& n) {
   SurfaceMotion m{a.velocity - b.velocity};

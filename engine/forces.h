@@ -17,7 +17,7 @@ namespace dem {
 /// between its two kicks, at the half-step velocity v(t + h/2): a dashpot then lags by h/2, so a
 /// lasting damped contact is only first order. `predicted` adds the second half kick the previous
 /// forces would give (v + h/2 (F/m + g), omega + h/2 T/I): second order, for a stability limit of
-/// omega0 h < 2 (sqrt(1 + 4 zeta^2) - 2 zeta) instead of 2 (sqrt(1 + zeta^2) - zeta) (PHYSICS.md 2
+/// omega0 h < 2 (sqrt(1 + 4 zeta^2) - 2 zeta) instead of 2 (sqrt(1 + zeta^2) - zeta) (docs/physics.md 4.2
 /// gives the second; the first is the predicted scheme's amplification matrix, tests/dashpot_test.cpp).
 struct DashpotVelocity {
   bool predicted = false;

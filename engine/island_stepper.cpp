@@ -108,7 +108,7 @@ Real event_error(const IslandState& start, const IslandState& end, Real h, const
 }
 
 /// The same contacts in the same modes at the start and at the end of both trials: no event
-/// (onset, release, mode change) happened, so the Richardson value is sound (PHYSICS.md 4).
+/// (onset, release, mode change) happened, so the Richardson value is sound (docs/physics.md 6.7).
 bool same_contacts(const IslandState& start, const IslandState& full, const IslandState& half) {
   if (start.pairs.key != half.pairs.key || full.pairs.key != half.pairs.key) return false;
   if (start.walls.key != half.walls.key || full.walls.key != half.walls.key) return false;

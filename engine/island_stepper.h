@@ -1,5 +1,5 @@
 #pragma once
-// Step doubling on one island (PHYSICS.md 4 and 5; DESIGN.md, Time). An island is cut out of the
+// Step doubling on one island (docs/physics.md 6; docs/design.md, Time). An island is cut out of the
 // World with its particles in ascending slot order (so ids, contact keys and row order are the
 // World's), the candidate pairs among them and its contacts with their history. It steps with the
 // kernels of the fixed control (Verlet kick-drift-forces-kick, or exact_step), three times per

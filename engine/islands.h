@@ -1,5 +1,5 @@
 #pragma once
-// Islands: connected components of the contact graph (DESIGN.md, Time). Under step doubling an
+// Islands: connected components of the contact graph (docs/design.md, Time). Under step doubling an
 // island steps at its finest member's level and retries as a whole; under the fixed control every
 // particle steps together, so islands are only reported.
 // Reads the pair contact list; writes the island of every particle and the members of each island.

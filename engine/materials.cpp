@@ -111,13 +111,13 @@ LawConstants MaterialTable::constants(std::uint16_t pair_class, const EffectiveM
   c.r_star = m.r_star;
   c.k_r = p.k_r >= 0 ? p.k_r : p.k_t * m.r_star * m.r_star;
   // Rolling dashpot for rolling about the contact point, inertia I* + m* R*^2 (3.5 I for a solid
-  // sphere on a wall; PHYSICS.md 1.4, Ai et al. type C), at damping ratio sqrt(2) [E], not 1: in the
-  // static state the rolling spring and the tangential spring (through the lever arm) form one
+  // sphere on a wall; docs/physics.md 2.4, Ai et al. type C), at damping ratio sqrt(2) (an engine
+  // choice), not 1: in the static state the rolling spring and the tangential spring (through the lever arm) form one
   // coupled system whose translational mode is damped by c_t alone and rocks the particle. Under a
   // step load (a sphere set down on a slope) the elastic rolling torque then overshoots its static
   // value; for a sphere on a wall, k_r = k_t R^2, zeta_t = 0.5 (0.2) the overshoot is 7.7% (12%) at
   // ratio 1, 0.2% (3%) at 1.2 and 0 (0.7%) at sqrt(2) (2-DOF model of the engine's step), so a
-  // hold at 0.97 of mu_rs survives its own loading (PHYSICS.md 6.4). The law caps c_r at I*/h.
+  // hold at 0.97 of mu_rs survives its own loading (docs/physics.md 8.4). The law caps c_r at I*/h.
   c.i_star = m.i_star;
   c.c_r = std::isinf(m.i_star) ? 0
                                : 2 * std::sqrt(2.0) * std::sqrt(c.k_r * (m.i_star + m.m_star * m.r_star * m.r_star));

@@ -35,7 +35,7 @@ struct LawConstants {
   Real r_star;          // effective radius [m]
 };
 
-/// Effective masses of a contact (PHYSICS.md 1.3): m*, tangential m_t, I* and R*.
+/// Effective masses of a contact (docs/physics.md 1.3): m*, tangential m_t, I* and R*.
 struct EffectiveMasses {
   Real m_star;  // [kg]
   Real m_t;     // [kg]

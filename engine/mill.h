@@ -1,7 +1,7 @@
 #pragma once
 // A grinding mill as a scene: a rotating cylindrical shell (axis z through the origin) with lifter
 // bars and, in 3D, end walls, all turning together with a start-up ramp; the charge fills it.
-// PHYSICS.md section 7. add_mill_walls turns a MillConfig into plain prescribed-motion walls, so the
+// docs/physics.md section 7. add_mill_walls turns a MillConfig into plain prescribed-motion walls, so the
 // engine needs nothing mill-specific; mill_monitor.h measures torque, power and the charge shape.
 #include <string>
 #include <vector>
@@ -27,7 +27,7 @@ struct MillConfig {
   std::size_t first_wall = 0;  // index of the shell among the scene's walls (set by the loader)
 };
 
-/// Critical speed omega_c = sqrt(g / (R_mill - r_ball)) [rad/s] (PHYSICS.md 7).
+/// Critical speed omega_c = sqrt(g / (R_mill - r_ball)) [rad/s] (docs/physics.md 7.1).
 Real critical_speed(Real mill_diameter, Real ball_diameter, Real gravity);
 
 /// Appends the mill's walls, named "shell", "lifter1".."lifterN" and, in 3D, "end_front" and "end_back",

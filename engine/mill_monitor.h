@@ -1,5 +1,5 @@
 #pragma once
-// Measures a running mill (PHYSICS.md 7): drive power and torque from the work the mill's walls do
+// Measures a running mill (docs/physics.md 7.2, 7.3): drive power and torque from the work the mill's walls do
 // on the charge (integrated every step by the World), per output interval and per revolution, the
 // mean power over steady revolutions, and the charge's toe and shoulder angles.
 //

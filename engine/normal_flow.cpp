@@ -83,7 +83,7 @@ Real push_slope(const NormalOscillator& o, Separation separation, Real a, const 
 }
 
 /// Puts s exactly on the force-zero condition omega0^2 delta + 2 beta delta' = 0 by moving the overlap
-/// to the residual -2 beta delta' / omega0^2 (PHYSICS.md 1.1), rounded one ulp towards `side` so that
+/// to the residual -2 beta delta' / omega0^2 (docs/physics.md 2.1), rounded one ulp towards `side` so that
 /// pushes() evaluates the force as >= 0 (+infinity) or <= 0 (-infinity). The overlap, not the rate, is
 /// moved: solving for the rate would divide round-off by a small beta.
 void place_on_force_zero(const NormalOscillator& o, NormalState& s, Real side) {

@@ -1,5 +1,5 @@
 #pragma once
-// The exact flow of one contact's normal coordinate (PHYSICS.md 3.1, 3.3): the overlap delta obeys
+// The exact flow of one contact's normal coordinate (docs/physics.md 5.1, 5.3): the overlap delta obeys
 // free flight, delta'' = a, while the contact pushes nothing, and the damped oscillator
 // delta'' + 2 beta delta' + omega0^2 delta = a while it pushes; the step is split at contact onset
 // and at release (force zero, or overlap zero under the overlap convention), each found as a root of
@@ -23,7 +23,7 @@ struct NormalOscillator {
 /// True when the contact pushes in state s: delta > 0 and, under force_zero, k delta + c delta' > 0.
 bool pushes(const NormalOscillator& o, Separation separation, const NormalState& s);
 
-/// The deepest overlap a flow reaches inside its step, for the divergence watch (PHYSICS.md 8: flag
+/// The deepest overlap a flow reaches inside its step, for the divergence watch (docs/physics.md 9.2: flag
 /// an overlap the linear law does not describe, even when a whole impact fits in one step). Cheap
 /// below `depth_of_interest`: a contact whose oscillator energy cannot carry it deeper reports the
 /// overlap at its ends; above, the true peak inside the step.
@@ -36,7 +36,7 @@ struct OverlapWatch {
 /// any number of onsets and releases (a long step may hold many bounces). A body touching at rest
 /// (delta = 0, delta' = 0) and pressed in (a > 0) starts a contact at once.
 /// `events` (optional) is increased by the number of onsets and releases crossed. `whole_step`
-/// (optional): precomputed propagator coefficients for exactly tau (PHYSICS.md 3.2). In a step no
+/// (optional): precomputed propagator coefficients for exactly tau (docs/physics.md 5.2). In a step no
 /// longer than a quarter period the pushing quantity (overlap, or force under force_zero) has at most
 /// one extremum, so when the contact pushes at both ends and that quantity did not fall at the start
 /// and rise at the end, no release can lie inside: the coefficients give the end state and the

@@ -1,7 +1,7 @@
 #pragma once
 // The engine's parallel helpers, over the project's one backend (broadphase/parallel.h: oneTBB, or
 // std::threads in the ThreadSanitizer build). Loops run in the caller's TaskArena (the World's), so the
-// thread count is set in exactly one place. Contracts (STYLE.md, deterministic parallelism):
+// thread count is set in exactly one place. Contracts (docs/design.md, Determinism):
 //  - parallel_for bodies write only slots owned by their index;
 //  - block_sum adds fixed-size blocks (size independent of the thread count) and combines the block
 //    partials serially in block order, so floating sums are bitwise identical for any thread count;

@@ -1,5 +1,5 @@
-// Closed-form propagator of delta'' + 2 beta delta' + omega0^2 delta = a (PHYSICS.md 3.1) and the
-// force-zero and overlap-zero times along its trajectory (PHYSICS.md 3.3).
+// Closed-form propagator of delta'' + 2 beta delta' + omega0^2 delta = a (docs/physics.md 5.1) and the
+// force-zero and overlap-zero times along its trajectory (docs/physics.md 5.3).
 //
 // Notation: d = omega0^2 - beta^2 = omega_d^2 = -s^2, z = d h^2, E = e^(-beta h); over-damped
 // eigenvalues lambda+- = -beta +- s, written with the positive rates slow = -lambda+ =

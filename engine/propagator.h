@@ -1,5 +1,5 @@
 #pragma once
-// Closed-form propagator of the damped linear oscillator (PHYSICS.md 3.1, 3.2, 3.3)
+// Closed-form propagator of the damped linear oscillator (docs/physics.md 5.1, 5.2, 5.3)
 //   delta'' + 2 beta delta' + omega0^2 delta = a,   a constant over the step,
 // with omega0 = sqrt(k/m*) [1/s] and beta = c/(2 m*) [1/s]. It is the normal channel of one pair in
 // its relative coordinate; a = -(a_i^ext - a_j^ext).n [m/s^2] folds in the body forces.
@@ -46,18 +46,18 @@ const PropagatorCoefficients& recent_propagator(Real omega0, Real beta, Real h);
 /// (delta0 [m], rate0 [m/s]) under constant a [m/s^2]; +infinity if it never does (also for the
 /// trivial trajectory with zero force throughout). Whatever the sign of the force at t = 0, the
 /// first sign change after it is returned; a zero at t = 0 itself is skipped.
-/// a = 0: closed form (PHYSICS.md 3.3; from delta0 = 0 this is omega_d t = pi - 2 arctan(beta/omega_d)
+/// a = 0: closed form (docs/physics.md 5.3; from delta0 = 0 this is omega_d t = pi - 2 arctan(beta/omega_d)
 /// under-damped, t = 2/omega0 critical, ln((beta+s)/(beta-s))/s over-damped).
 /// a != 0: Newton safeguarded by bisection on a bracket between consecutive extrema of the force.
 Real force_zero_time(Real omega0, Real beta, Real delta0, Real rate0, Real a);
 
 /// First time t > 0 [s] at which delta = 0 along the same trajectory (the overlap convention of
-/// PHYSICS.md 1.1); +infinity if never. a = 0: closed form (pi/omega_d from delta0 = 0); a != 0:
+/// docs/physics.md 2.1); +infinity if never. a = 0: closed form (pi/omega_d from delta0 = 0); a != 0:
 /// safeguarded Newton as above.
 Real overlap_zero_time(Real omega0, Real beta, Real delta0, Real rate0, Real a);
 
 /// Coefficients cached per (contact class, level), built on demand only for the pairs a scene
-/// uses (PHYSICS.md 3.2). A level's step is h = dt_base 2^level (PHYSICS.md 5).
+/// uses (docs/physics.md 5.2). A level's step is h = dt_base 2^level (docs/physics.md 6.1).
 /// Threading contract: get() inserts and is serial only. Call it for every (class, level) a
 /// parallel loop needs in a serial step before that loop; inside the loop use the const find(),
 /// which only reads the map and is safe from any number of threads while no get() or clear()

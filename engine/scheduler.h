@@ -1,5 +1,5 @@
 #pragma once
-// Time keeping (DESIGN.md, Time). A particle's step is dt_base * 2^level with an integer level in
+// Time keeping (docs/design.md, Time). A particle's step is dt_base * 2^level with an integer level in
 // [level_min, level_max]; sync intervals last T = dt_base * 2^level_max. Time is the count of
 // completed sync intervals plus an integer tick of the finest step inside the current one, never an
 // accumulated float. Under the fixed control every particle is at level 0 and T = dt.

@@ -1,5 +1,5 @@
 #pragma once
-// Per-particle state as a structure of arrays (DESIGN.md, State). Hot arrays are one std::vector per
+// Per-particle state as a structure of arrays (docs/design.md, State). Hot arrays are one std::vector per
 // field; a stage touches only those it needs. `id` holds the stable ParticleId of each slot and
 // `index_of_id` the inverse map; both change only in functions of this file.
 #include <cstdint>
@@ -40,7 +40,7 @@ struct State {
   void remove(ParticleIndex slot);
 };
 
-/// Mass treated as infinite in momentum and energy audits (PHYSICS.md 1.6: a 1e20 kg "wall" swamps
+/// Mass treated as infinite in momentum and energy audits (docs/physics.md 1.3: a 1e20 kg "wall" swamps
 /// round-off of the real particles).
 inline constexpr Real audit_mass_limit = 1e15;  // [kg]
 

@@ -1,7 +1,7 @@
 #pragma once
-// Step-doubling error control (PHYSICS.md 4): the per-particle error norm comparing one full step
+// Step-doubling error control (docs/physics.md 6.4-6.7): the per-particle error norm comparing one full step
 // with two half steps, the level decision it implies, and the Richardson-improved value. Pure
-// functions; the scheduler (issue: step doubling) applies them to islands.
+// functions; the island stepper (island_stepper.cpp) applies them to islands.
 #include "engine/config.h"
 
 namespace dem {
@@ -13,7 +13,7 @@ struct TrialState {
   Vec3 angular_velocity;  // [rad/s]
 };
 
-/// Seed formula (3) as reconstructed, with the angular extension and a fixed velocity weight [E]:
+/// Seed formula (3) as reconstructed, with the angular extension and a fixed velocity weight (engine choices):
 ///   E = (|x1 - x2| + w T |v1 - v2| + w R T |omega1 - omega2| - noise) / (|dX| + dx_min R h / T)
 /// with one = the full step, two = two half steps, h the full step [s], dX the displacement over the
 /// step [m], w the velocity weight, dx_min relative to the radius R, and T the reference time [s]
@@ -27,7 +27,7 @@ struct TrialState {
 Real step_error(const TrialState& one, const TrialState& two, const Vec3& displacement, Real h, Real reference_time,
                 Real radius, Real velocity_weight, Real dx_min);
 
-/// What to do after a trial at `level` with error `error` (PHYSICS.md 4, 5).
+/// What to do after a trial at `level` with error `error` (docs/physics.md 6.6).
 struct LevelDecision {
   bool accept;   // keep the step (always at level_min: then `forced`)
   bool forced;   // accepted only because level_min was reached
@@ -35,7 +35,7 @@ struct LevelDecision {
 };
 
 /// Order p of the stepper (verlet 2, exact 1), safety S, tolerance, and whether the current tick is
-/// aligned with the doubled step (promotion only then, PHYSICS.md 5).
+/// aligned with the doubled step (promotion only then, docs/physics.md 6.6).
 LevelDecision decide_level(Real error, int level, int level_min, int level_max, int order, Real safety,
                            Real tolerance, bool aligned_for_promotion);
 

@@ -1,6 +1,6 @@
 #pragma once
 // What a step can get wrong without producing a NaN, watched after every fixed step (reliability,
-// PHYSICS.md 8): a contact deeper than the linear law describes, and a particle whose next step would
+// docs/physics.md 9.2): a contact deeper than the linear law describes, and a particle whose next step would
 // carry it further than its own radius, so that it could step over a wall or another particle
 // without any contact being seen (tunnelling). The World keeps the worst of each since the start;
 // the divergence guard (engine/cli/energy_audit.h) stops a run on them.

@@ -192,7 +192,7 @@ void World::step_exact(Real h) {
   exact_dissipated_ += exact_step(state_, walls_, materials_, candidates_, settings, time(), h, exact_work_);
   wall_work_ += exact_work_.wall_work - wall_work;  // exact, flow by flow
   counters_.unresolved_contacts += exact_work_.unresolved - unresolved;
-  // A step redone because it missed a contact costs a full trial: count it (DESIGN.md, counters).
+  // A step redone because it missed a contact costs a full trial: count it (docs/design.md, Counters).
   const std::uint64_t redone = (exact_work_.retries - retries) * state_.size();
   counters_.particle_steps += redone;
   counters_.rejected_steps += redone;

@@ -171,7 +171,7 @@ class World {
   /// The same bytes by container group, in a fixed order (world_memory.cpp).
   std::vector<MemoryPart> memory_breakdown() const;
 
-  // ---- Embedding API (DESIGN.md, Embedding; world_embedding.cpp) -------------------------------
+  // ---- Embedding API (docs/design.md, Embedding; world_embedding.cpp) -------------------------------
   // For programs that link dem::engine: build from a scene file, run with a callback at sync times,
   // read state, contact forces and wall loads, feed and discharge particles between sync intervals.
   // Every call below is made between sync intervals (never from inside the World's arena), and

@@ -1,4 +1,4 @@
-// Step doubling in the World (PHYSICS.md 4 and 5; DESIGN.md, Time).
+// Step doubling in the World (docs/physics.md 6; docs/design.md, Time).
 // A sync interval is cut into rounds, each as long as the longest step the candidate skin allows.
 // One round:
 //   islands: contacts plus anticipated pairs (gap < 2 x the relative reach over the round)
@@ -10,9 +10,9 @@
 //      with a wider skin
 //   -> `next` becomes the state; the islands' contacts become the World's lists (method exact: the
 //      islands' wall-contact histories become the World's exact history).
-// So a contact never spans two islands at different levels: where the DESIGN's booking would
-// apply the impulse late to one side, the two sides are integrated together instead (momentum
-// exact and accuracy kept). Islands are independent, so results do not depend on thread count.
+// So a contact never spans two islands at different levels: rather than booking its impulse late on
+// the coarser side, the two sides are integrated together (momentum exact and accuracy kept;
+// docs/design.md, Time). Islands are independent, so results do not depend on thread count.
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>

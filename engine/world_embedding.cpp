@@ -1,4 +1,4 @@
-// The World's embedding API (DESIGN.md, Embedding): building from a scene file, running with a
+// The World's embedding API (docs/design.md, Embedding): building from a scene file, running with a
 // callback at sync times, reading particles by stable id and contact forces, and feeding and
 // discharging particles between sync intervals.
 // A population change, top to bottom:
@@ -10,7 +10,7 @@
 //   -> candidate pairs rebuilt -> step doubling's per-particle arrays resized to the new count.
 // Reads and writes the World's state, contact lists, energy books and doubling work; only between
 // sync intervals. Threading: serial, except the gather and the candidate rebuild, which run in the
-// World's arena under the rules of STYLE.md; nothing here depends on the thread count.
+// World's arena under the rules of docs/design.md, Determinism; nothing here depends on the thread count.
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>

@@ -1,5 +1,5 @@
 // Restart: 2N intervals straight against N, checkpoint, restore into a new world, N more: bit-equal
-// (STYLE.md, after REBOUND). Damaged files and checkpoints of other physics are refused.
+// (docs/design.md, Checkpoints). Damaged files and checkpoints of other physics are refused.
 #include <gtest/gtest.h>
 
 #include <filesystem>

@@ -1,5 +1,5 @@
 // The energy audit stops an unstable run: the seed slope with velocity Verlet at dt = 0.1 s
-// (omega0 dt = 2.24 > 2, beyond the Cundall-Strack limit, PHYSICS.md 2) gains energy from nowhere
+// (omega0 dt = 2.24 > 2, beyond the Cundall-Strack limit, docs/physics.md 4.2) gains energy from nowhere
 // and must end with exit code 3 and a diagnosis, not finish quietly with nonsense; the same scene at
 // its own dt passes the audit. Every way out of a run that writes results is audited first.
 #include <gtest/gtest.h>

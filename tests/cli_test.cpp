@@ -3,8 +3,8 @@
 //  - every scene in tests/scenes/bad/ is rejected by `dem check` with exit code 2, naming the file, line,
 //    column and field its header comments state; every scene in scenes/ passes `dem check`;
 //  - `--set` overrides reach the run (checked in the outputs), unknown paths are rejected;
-//  - the seed slope (PHYSICS.md 6.8, engine variant) against the oracle table, read from series.csv;
-//  - series.csv, walls.csv, summary.json and the VTK files have the documented shape (DESIGN.md, Outputs);
+//  - the seed slope (docs/physics.md 8.8, engine variant) against the oracle table, read from series.csv;
+//  - series.csv, walls.csv, summary.json and the VTK files have the documented shape (docs/design.md, Outputs);
 //  - exit codes 2 (bad input) and 3 (divergence); the state hash does not depend on --threads.
 #include <gtest/gtest.h>
 
@@ -418,7 +418,7 @@ TEST(Set, ArrayValueReplacesGravity) {
 
 TEST(Set, ValueInsideAnInlineTableReachesTheContact) {
   const TempDir tmp;
-  // PHYSICS.md 6.2: undamped, e = 1 (Verlet: |e - 1| <= C (omega0 h)^2, here ~1e-5); damped with
+  // docs/physics.md 8.2: undamped, e = 1 (Verlet: |e - 1| <= C (omega0 h)^2, here ~1e-5); damped with
   // zeta = 0.1 (the scene's value), e = 0.74408 under force-zero separation.
   const Result damped = run_scene(head_on, tmp.path() / "damped", {});
   const Result undamped = run_scene(head_on, tmp.path() / "undamped", {"--set", "contacts[0].normal_damping.damping_ratio=0"});
@@ -485,13 +485,13 @@ TEST(Set, UnknownPathIsBadInputWithSuggestion) {
 }
 
 // ---------------------------------------------------------------------------------------------------
-// The seed slope through the program (PHYSICS.md 6.8, engine variant)
+// The seed slope through the program (docs/physics.md 8.8, engine variant)
 
 struct SlopeCase {
   const char* name;
   bool disc;
   const char* rolling_mode;
-  // Oracle row of PHYSICS.md 6.8: rolling at t [s], v [m/s], s [m]; stop t [s], stop s [m].
+  // Oracle row of docs/physics.md 8.8: rolling at t [s], v [m/s], s [m]; stop t [s], stop s [m].
   double roll_t, roll_v, roll_s, stop_t, stop_s;
 };
 
@@ -582,7 +582,7 @@ TEST_P(SeedSlopeTest, MatchesTheOracleTableWithinHalfAPercent) {
 }
 
 TEST_P(SeedSlopeTest, StaysAtRestAfterStopping) {
-  // PHYSICS.md 6.8: "Then static for all later time" (tan(theta) = 0.2 < mu_rs = 0.3).
+  // docs/physics.md 8.8: at rest for good once stopped (tan(theta) = 0.2 < mu_rs = 0.3).
   const SlopeCase& c = GetParam();
   const TempDir tmp;
   const SlopeMeasured m = measure_slope(c, tmp.path() / "out");
@@ -673,7 +673,7 @@ TEST(Outputs, FilesHaveTheDocumentedShape) {
 }
 
 TEST(Outputs, RowsAndSnapshotsAtTheFirstSyncTimeAtOrAfterEachMultiple) {
-  // DESIGN.md Outputs: "a row at the first sync time at or after each multiple of output.interval".
+  // docs/design.md, Outputs: a row at the first sync time at or after each multiple of output.interval.
   // The seed slope: sync times every 1 ms, rows every 5 ms, snapshots every 0.1 s: all multiples of 1 ms
   // are sync times, so every row and snapshot falls on its multiple.
   const TempDir tmp;

@@ -1,6 +1,6 @@
 // `dem trade` from the outside (run through std::system as a user would; only exit codes, messages and
 // files are looked at):
-//  - trade.csv has the documented columns and one row per setting (head_on, PHYSICS.md 6.2);
+//  - trade.csv has the documented columns and one row per setting (head_on, docs/physics.md 8.2);
 //  - fixed velocity Verlet is second order: on a sphere oscillating on a plane wall (never separating, so
 //    no contact events) halving dt divides the trajectory error by about 4;
 //  - an unstable fixed step (seed slope at dt = 0.1 s, omega0 dt > 2) is a `diverged` row with infinite

@@ -1,5 +1,5 @@
 // Long validation (ctest label `long`) of the contact physics: the 1e5-period energy-drift run and
-// the 1e5-step packing run of PHYSICS.md 6.6. Scenes and bounds are shared with
+// the 1e5-step packing run of docs/physics.md 8.6. Scenes and bounds are shared with
 // contact_physics_test.cpp (tests/contact_scenes.h), which runs the 1e4-period / 2e4-step versions.
 #include <gtest/gtest.h>
 
@@ -40,7 +40,7 @@ TEST(ContactPhysicsLong, VerletEnergyErrorInUndampedPackingIsBoundedWithoutTrend
 }
 
 TEST(ContactPhysicsLong, ExactMethodKeepsPackingEnergyWithin1e3Over1e5Steps) {
-  // PHYSICS.md 6.6, scheme (D): |dE| <= 1e-3 at omega_max h = 0.3, no trend over 1e5 steps.
+  // docs/physics.md 8.6, scheme (D): |dE| <= 1e-3 at omega_max h = 0.3, no trend over 1e5 steps.
   const PackingRun r = run_packing(Method::exact, 0.3, 100'000);
   record(r);
   EXPECT_LE(r.max_error, 1e-3);

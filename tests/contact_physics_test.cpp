@@ -1,8 +1,8 @@
 // Contact physics through the World (fixed control, velocity Verlet) against the analytic oracles of
-// PHYSICS.md section 6: free fall, head-on restitution and contact time in both separation
+// docs/physics.md section 8: free fall, head-on restitution and contact time in both separation
 // conventions, sliding to rolling, static hold on an incline, rolling-resistance stopping distance,
 // energy and momentum conservation, Verlet convergence order, 2-D discs, and walls.
-// Every expected value is derived here from PHYSICS.md formulas; none is copied from engine output.
+// Every expected value is derived here from docs/physics.md formulas; none is copied from engine output.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -104,7 +104,7 @@ TEST(ContactPhysics, HeadOnCollisionMatchesSection62Numbers) {
 
 TEST(ContactPhysics, HeadOnRestitutionAndContactTimeMatchBothConventions) {
   // Restitution given as DampingKind::restitution; the oracle for e is the input itself, the oracle
-  // for t_c the closed forms of PHYSICS.md 1.2 (re-derived above, independent of engine/damping.cpp).
+  // for t_c the closed forms of docs/physics.md 2.2 (re-derived above, independent of engine/damping.cpp).
   const Real k = 1e5, m_star = 0.5, omega0 = std::sqrt(k / m_star);
   Real worst_e = 0, worst_t = 0;
   for (Separation sep : {Separation::force_zero, Separation::overlap}) {
@@ -130,7 +130,7 @@ TEST(ContactPhysics, HeadOnRestitutionAndContactTimeMatchBothConventions) {
 }
 
 TEST(ContactPhysics, UndampedHeadOnRestitutionErrorIsSecondOrder) {
-  // PHYSICS.md 6.6: with Verlet |e - 1| <= C (omega0 h)^2.
+  // docs/physics.md 8.6: with Verlet |e - 1| <= C (omega0 h)^2.
   const Real k = 1e5, omega0 = std::sqrt(k / 0.5);
   Real worst = 0;
   for (Separation sep : {Separation::force_zero, Separation::overlap}) {
@@ -163,8 +163,8 @@ struct SlideOracle {
 };
 
 // Sliding from v0 with no spin, friction mu, lever arm a = R - delta0/2 (the engine's rule,
-// PHYSICS.md 1.3): slip decelerates at mu g (1 + a^2 / (kappa R^2)); with a = R this is 6.3's
-// t = kappa v0 / ((1 + kappa) mu g), v = v0 / (1 + kappa), distance v0 t - mu g t^2 / 2.
+// docs/physics.md 1.2): slip decelerates at mu g (1 + a^2 / (kappa R^2)); with a = R this is
+// docs/physics.md 8.3's t = kappa v0 / ((1 + kappa) mu g), v = v0 / (1 + kappa), distance v0 t - mu g t^2 / 2.
 SlideOracle slide_oracle(Real kappa, Real v0, Real mu, Real g, Real radius, Real arm) {
   const Real lambda = 1 + arm * arm / (kappa * radius * radius);
   const Real t = v0 / (mu * g * lambda);
@@ -305,10 +305,10 @@ InclineRun incline(Real tan_theta, Real mu, Real mu_s, Real mu_r, Real mu_rs, Re
 
 TEST(ContactPhysics, SphereHoldsOnInclineWhenBothStaticLimitsSuffice) {
   // mu_s = 0.5, mu_rs = 0.3 (mu = 0.4 <= mu_s, mu_r = 0.2 <= mu_rs): holds iff tan(theta) <= 0.3.
-  // The sphere is put down at rest at its equilibrium overlap, springs unloaded. The static state of
-  // PHYSICS.md 1.4 stands for the rigid constraint "the torque needed to keep omega_r = 0, up to
-  // mu_rs R F_n": the spring-dashpot that implements it must not let the loading transient exceed
-  // the static limits (once rolling, mu_r < tan(theta) would keep it rolling).
+  // The sphere is put down at rest at its equilibrium overlap, springs unloaded. The static hold of
+  // docs/physics.md 2.4 stands for the rigid constraint of docs/physics.md 8.4 (whatever torque keeps
+  // omega_r = 0, up to mu_rs R F_n): the spring-dashpot that implements it must not let the loading
+  // transient exceed the static limits (once rolling, mu_r < tan(theta) would keep it rolling).
   // Creep measured between t = 1 s (settled: the damped springs decay as exp(-zeta omega t) with
   // zeta omega >= 100 1/s) and t = 11 s.
   for (Real tan_theta : {0.0, 0.1, 0.25, 0.29}) {
@@ -485,7 +485,7 @@ TEST(ContactPhysics, UndampedBouncingParticleShowsNoEnergyDriftOver1e4Periods) {
 }
 
 TEST(ContactPhysics, VerletKeepsEnergyOfCompressedPackingWithin1e3WithoutTrend) {
-  // PHYSICS.md 6.6 with velocity Verlet on many undamped contacts that persist (no gravity, zero
+  // docs/physics.md 8.6 with velocity Verlet on many undamped contacts that persist (no gravity, zero
   // total momentum): |dE| <= 1e-3 of the initial kinetic + elastic energy at omega_max h = 0.3, with no
   // trend. Sharper, from the shadow energy (tests/contact_scenes.h): 0 <= dE <= (omega_max h)^2/4 of
   // the vibration energy, and the error is Verlet's own, second order in h.
@@ -505,9 +505,8 @@ TEST(ContactPhysics, VerletEnergyErrorInUndampedPackingIsBoundedWithoutTrend) {
   // A packing that rearranges (a square lattice that buckles: contacts made and broken all the time).
   // Velocity Verlet (the fixed control's method). For a linear system it conserves
   // H - (h^2/8) sum F_i^2/m_i exactly, so |dE| <= (omega_max h)^2/4 of the elastic energy; contacts
-  // made and broken add zero-mean kink errors of the same order (kUndampedC). PHYSICS.md 6.6 quotes
-  // ~55% for Verlet at omega_max h = 1.5, i.e. 2.2% at 0.3 with the h^2 scaling. Bound:
-  // (omega_max h)^2 / 4 = 2.25e-2. No trend: a linear drift from 0 gives last/first ~ 19, a random
+  // made and broken add zero-mean kink errors of the same order (kUndampedC; docs/physics.md 8.6).
+  // Bound: (omega_max h)^2 / 4 = 2.25e-2. No trend: a linear drift from 0 gives last/first ~ 19, a random
   // walk of kink errors ~ 4.5, a bounded oscillation ~ 1; require <= 8.
   const PackingRun r = run_packing(Method::verlet, 0.3, 20'000);
   record(r);
@@ -518,7 +517,7 @@ TEST(ContactPhysics, VerletEnergyErrorInUndampedPackingIsBoundedWithoutTrend) {
 }
 
 TEST(ContactPhysics, ExactMethodKeepsPackingEnergyWithin3e2AtOmegaMaxDt15) {
-  // PHYSICS.md 6.6, scheme (D) at omega_max h = 1.5, beyond Verlet's stability limit for the packing:
+  // docs/physics.md 8.6, scheme (D) at omega_max h = 1.5, beyond Verlet's stability limit for the packing:
   // |dE| <= 3e-2 of the initial kinetic + elastic energy, with no trend.
   const PackingRun r = run_packing(Method::exact, 1.5, 20'000);
   record(r);
@@ -527,8 +526,8 @@ TEST(ContactPhysics, ExactMethodKeepsPackingEnergyWithin3e2AtOmegaMaxDt15) {
 }
 
 TEST(ContactPhysics, ExactMethodKeepsPackingEnergyWithin1e3AtOmegaMaxDt03) {
-  // PHYSICS.md 6.6 for scheme (D), the recommended multi-contact exact stepper (3.4): |dE| <= 1e-3 of
-  // the initial kinetic + elastic energy at omega_max h = 0.3, with no trend.
+  // docs/physics.md 8.6 for scheme (D), the multi-contact exact stepper (docs/physics.md 5.4):
+  // |dE| <= 1e-3 of the initial kinetic + elastic energy at omega_max h = 0.3, with no trend.
   const PackingRun r = run_packing(Method::exact, 0.3, 20'000);
   record(r);
   EXPECT_LE(r.max_error, 1e-3);

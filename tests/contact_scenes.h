@@ -1,6 +1,6 @@
 #pragma once
 // Scenes and oracles shared by contact_physics_test.cpp and contact_physics_long_test.cpp:
-// configurations built in code (config.h structs) and the PHYSICS.md 1.2 closed forms, re-derived
+// configurations built in code (config.h structs) and the docs/physics.md 2.2 closed forms, re-derived
 // here independently of engine/damping.cpp.
 #include <gtest/gtest.h>
 
@@ -17,7 +17,7 @@
 namespace dem::test {
 
 // ---------------------------------------------------------------------------------------------
-// Helpers: configurations built in code, oracles of PHYSICS.md 1.2 re-derived independently.
+// Helpers: configurations built in code, oracles of docs/physics.md 2.2 re-derived independently.
 
 // Scientific notation for RecordProperty (std::to_string prints 6 fixed decimals).
 inline std::string sci(double x) {
@@ -56,7 +56,7 @@ inline void advance(World& world, long n) {
   for (long s = 0; s < n; ++s) ASSERT_EQ(world.advance_sync_interval(), StepStatus::ok);
 }
 
-// Oracle of PHYSICS.md 1.2, written independently of engine/damping.cpp.
+// Oracle of docs/physics.md 2.2, written independently of engine/damping.cpp.
 // omega0 * t_c and e for damping ratio zeta in each convention.
 struct ContactOracle {
   Real time;  // omega0 t_c
@@ -212,7 +212,7 @@ struct PackingRun {
   Real initial_kinetic;   // [J]
 };
 
-// omega_max^2 <= max_i sum_j k_ij / m*_ij over the current contacts (walls: m* = m_i), PHYSICS.md 2.
+// omega_max^2 <= max_i sum_j k_ij / m*_ij over the current contacts (walls: m* = m_i), docs/physics.md 4.2.
 inline Real omega_max_bound(const World& world) {
   const State& s = world.state();
   std::vector<Real> sum(s.size(), 0);

@@ -1,6 +1,6 @@
 // Tests of engine/damping.h: restitution <-> damping ratio <-> contact time of the linear
-// spring-dashpot (PHYSICS.md 1.2) in both separation conventions.
-// Oracles: the verified table of PHYSICS.md 1.2, the closed forms of 1.2 re-derived here, and an
+// spring-dashpot (docs/physics.md 2.2) in both separation conventions.
+// Oracles: the verified table of docs/physics.md 2.2, the closed forms of 1.2 re-derived here, and an
 // independent method (RK4 integration of the dimensionless damped oscillator with the contact-end
 // rule of each convention). Never values copied from the engine.
 #include "engine/damping.h"
@@ -18,7 +18,7 @@ constexpr Separation kOverlap = Separation::overlap;
 constexpr Separation kForceZero = Separation::force_zero;
 const Real kCriticalRestitution = std::exp(-2.0);  // force-zero e at zeta = 1
 
-// One row of the PHYSICS.md 1.2 table (e, zeta and omega0 t_c in both conventions).
+// One row of the docs/physics.md 2.2 table (e, zeta and omega0 t_c in both conventions).
 struct TableRow {
   Real e;
   Real zeta_overlap, time_overlap;
@@ -115,7 +115,7 @@ TEST(Damping, RestitutionFromTableRatioReproducesTableRestitution) {
 
 TEST(Damping, ClosedFormsOfBothConventionsHold) {
   // Overlap: e = exp(-zeta pi / sqrt(1 - zeta^2)), t_c omega0 = pi / sqrt(1 - zeta^2).
-  // Force-zero: e = exp(-zeta omega0 t_c) in every regime (PHYSICS.md 1.2).
+  // Force-zero: e = exp(-zeta omega0 t_c) in every regime (docs/physics.md 2.2).
   for (Real zeta : {1e-6, 0.01, 0.1, 0.3, 0.6, 0.9, 0.999}) {
     SCOPED_TRACE(zeta);
     const Real wd = std::sqrt(1 - zeta * zeta);
@@ -227,7 +227,7 @@ TEST(Damping, OverlapConventionHasNoReboundAtOrAboveCriticalDamping) {
 }
 
 TEST(Damping, ConventionsAgreeToFirstOrderInDampingRatio) {
-  // Both give -ln e = pi zeta + O(zeta^2); their difference is O(zeta^2) (PHYSICS.md 1.2).
+  // Both give -ln e = pi zeta + O(zeta^2); their difference is O(zeta^2) (docs/physics.md 2.2).
   for (Real zeta : {1e-3, 1e-4, 1e-5}) {
     const Real lo = -std::log(restitution_from_damping_ratio(zeta, kOverlap));
     const Real lf = -std::log(restitution_from_damping_ratio(zeta, kForceZero));

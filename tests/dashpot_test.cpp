@@ -6,7 +6,7 @@
 //  1. Order: with the half-step velocity the dashpot lags by h/2 and the error is first order in h;
 //     with the predicted velocity it is second order (least-squares order over steps spanning 16x).
 //  2. Stability: the predicted dashpot's limit is omega0 h = 2 (sqrt(1 + 4 zeta^2) - 2 zeta), the
-//     half-step one's 2 (sqrt(1 + zeta^2) - zeta) (PHYSICS.md 2): bounded just below, growing just
+//     half-step one's 2 (sqrt(1 + zeta^2) - zeta) (docs/physics.md 4.2): bounded just below, growing just
 //     above, for each.
 // The oracle is the damped oscillator's solution, derived here; nothing is taken from the engine.
 #include <gtest/gtest.h>

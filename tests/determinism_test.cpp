@@ -1,6 +1,6 @@
-// Results are bitwise identical for any thread count and any run (STYLE.md, deterministic
-// parallelism): the state hash after a run with grid rebuilds and contacts created and removed is the
-// same for 1, 2, 3 and 8 threads (8 oversubscribed) and for a repeat; with either parallel backend
+// Results are bitwise identical for any thread count and any run (docs/design.md, Determinism): the
+// state hash after a run with grid rebuilds and contacts created and removed is the same for 1, 2, 3
+// and 8 threads (8 oversubscribed) and for a repeat; with either parallel backend
 // (tests/thread_support.h).
 #include <gtest/gtest.h>
 

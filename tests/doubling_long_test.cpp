@@ -1,5 +1,5 @@
 // Long validation of step doubling (ctest label `long`): the undamped dense packings of
-// doubling_test.cpp over 1e5 sync intervals (PHYSICS.md 6.6 measure: |dE| against the initial kinetic +
+// doubling_test.cpp over 1e5 sync intervals (docs/physics.md 8.6 measure: |dE| against the initial kinetic +
 // elastic energy, no gravity, zero total momentum), at tolerances 1e-2 and 1e-3, with the same
 // ensemble measure of a trend as the short test.
 // Known failure (skipped unless DEM_RUN_KNOWN_FAILURES=1): at tolerance 1e-3 the error stays far

@@ -28,7 +28,7 @@ inline void set_doubling(WorldConfig& c, Real dt_base, int level_min, int level_
 
 // The packing of contact_scenes.h (36 discs in a box, ~1% overlaps, no gravity, zero total momentum,
 // undamped; `seed` draws its radii, masses, offsets and velocities), under doubling with level_max at
-// omega_max h = 0.3 (the step of the exact-stepper measure, PHYSICS.md 6.6) and level_min 12 levels
+// omega_max h = 0.3 (the step of the exact-stepper measure, docs/physics.md 8.6) and level_min 12 levels
 // below; or, with `fixed`, under fixed-step Verlet at that same omega_max h = 0.3 (one step per sync
 // interval, so for as many steps as the doubling run has sync intervals). Energy = kinetic + elastic.
 struct PackingPath {

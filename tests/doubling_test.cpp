@@ -1,18 +1,18 @@
-// Step doubling through the World (control = doubling; PHYSICS.md 4, 5; DESIGN.md, Time):
+// Step doubling through the World (control = doubling; docs/physics.md 6; docs/design.md, Time):
 //  1. Tolerance means something: the error against a converged reference falls as the tolerance
 //     tightens from 1e-2 to 1e-7, and error / tolerance stays within a factor 10 over that range
-//     (seed slope, PHYSICS.md 6.8 engine variant, with integrator.error_per_unit_step against the
+//     (seed slope, docs/physics.md 8.8 engine variant, with integrator.error_per_unit_step against the
 //     exact stepper; and a damped 50-particle cluster falling onto a plane, with error_per_unit_step
 //     and integrator.predicted_dashpot); tolerances down to 1e-12 terminate with forced steps counted.
 //  2. A particle flying at a wall at v h_max = 10 R spends >= 90% of its steps at level_max, is
-//     demoted only near the wall, never tunnels and bounces with the PHYSICS.md 1.2 restitution.
+//     demoted only near the wall, never tunnels and bounces with the docs/physics.md 2.2 restitution.
 //  3. Two islands at different levels that touch inside one round are merged and the round redone;
 //     linear momentum is conserved to round-off and the impulse reaches the struck particle.
 //  4. Bitwise determinism for 1, 2, 3 and 8 threads and repeated runs, particles raining onto a bed.
-//  5. Energy of an undamped dense packing stays within 1e-3 without trend (PHYSICS.md 6.6 measure),
+//  5. Energy of an undamped dense packing stays within 1e-3 without trend (docs/physics.md 8.6 measure),
 //     over an ensemble of packings, and no worse than the fixed step of the coarsest level.
-//  6. method = exact under doubling: head-on restitution (PHYSICS.md 6.2) and free fall exact.
-// Every expected value comes from PHYSICS.md formulas, conservation laws or converged references
+//  6. method = exact under doubling: head-on restitution (docs/physics.md 8.2) and free fall exact.
+// Every expected value comes from docs/physics.md formulas, conservation laws or converged references
 // computed here; none is copied from the engine's output.
 //
 #include <gtest/gtest.h>
@@ -65,7 +65,7 @@ void print_sweep(const char* scene, const Sweep& s) {
 // ---------------------------------------------------------------------------------------------
 // 1. Tolerance means something
 
-// PHYSICS.md 6.8, engine variant (the parameters of scenes/seed_slope.toml): sphere m = 4, R = 1 on
+// docs/physics.md 8.8, engine variant (the parameters of scenes/seed_slope.toml): sphere m = 4, R = 1 on
 // the plane z = 0 with gravity 9.8 tilted so tan(theta) = 0.2 down +x; k = 2000, zeta = 0.2, k_t = 2k/7,
 // zeta_t = 0.2, mu = 0.7, mu_s = 1, mu_r = 0.4, mu_rs = 0.3, standard rolling mode, start at the
 // equilibrium overlap with v = 10 down-slope. dt_base = 2^-10 s; sync interval 2^-7 s (level_max 3).
@@ -111,7 +111,7 @@ std::vector<Vec3> slope_trajectory(Real tolerance) {
 }
 
 // The same positions from the exact stepper at a fixed step of sync_interval / substeps: an
-// independent method, exact between the mode switches it finds as roots (PHYSICS.md 3.3, 1.5).
+// independent method, exact between the mode switches it finds as roots (docs/physics.md 5.6, 5.7).
 std::vector<Vec3> slope_exact_trajectory(long substeps) {
   WorldConfig c = seed_slope();
   c.integrator.method = Method::exact;
@@ -133,7 +133,7 @@ const Sweep& slope_sweep() {
     Sweep s;
     s.reference_refinement = max_distance(reference, slope_exact_trajectory(8));
     for (Real tol : sweep_tolerances) s.error.push_back(max_distance(slope_trajectory(tol), reference));
-    // The reference is the physics of PHYSICS.md 6.8: standard-mode stop distance 19.357 within 0.5%.
+    // The reference is the physics of docs/physics.md 8.8: standard-mode stop distance 19.357 within 0.5%.
     EXPECT_NEAR(reference.back().x(), 19.357, 0.005 * 19.357);
     print_sweep("seed slope (max position error over the 8 s trajectory)", s);
     return s;
@@ -191,7 +191,7 @@ std::vector<Vec3> cluster_doubling(Real tolerance) {
   return cluster_end(c, 1);
 }
 
-// Reference: the exact stepper (PHYSICS.md 3.4 scheme D, an independent method: exact for free
+// Reference: the exact stepper (docs/physics.md 5.4 scheme D, an independent method: exact for free
 // flight, wall contacts and isolated pairs, second order in the coupling) at a fixed step of 2^-22 s,
 // checked against 2^-23 s.
 std::vector<Vec3> cluster_exact(int exponent) {
@@ -251,7 +251,7 @@ TEST(Doubling, ClusterErrorIsProportionalToTolerance) {
   EXPECT_LT(spread_of_error_over_tolerance(cluster_sweep()), 10.0);
 }
 
-// Below the round-off floor (PHYSICS.md 4: ~eps |x| / (|dX| + dX_min)) only forced accepts at
+// Below the round-off floor (docs/physics.md 6.6: ~eps |x| / (|dX| + dX_min)) only forced accepts at
 // level_min remain. The run must still end, with bounded work: every accepted step covers at least
 // one tick, and costs at most 3 trials per level it can drop, plus its own 3.
 void expect_terminates_with_forced_steps(WorldConfig c, Real dt_base, int level_min, int level_max, long intervals) {
@@ -368,7 +368,7 @@ TEST(Doubling, ParticleFlyingAtAWallStaysAtLevelMaxExceptNearItAndBouncesWithThe
     // Never tunnels: the centre stays on the particles' side, and the particle comes back.
     EXPECT_GT(r.min_x, 0.0);
     EXPECT_GT(r.restitution, 0.0);
-    // Restitution of PHYSICS.md 1.2 (force-zero, wall m* = m): within the accumulated allowance.
+    // Restitution of docs/physics.md 2.2 (force-zero, wall m* = m): within the accumulated allowance.
     EXPECT_NEAR(r.restitution, e_oracle, allowance);
     std::printf("wall, phase %.2f: level_max share %.4f (%llu of %llu), e %.8f oracle %.8f (diff %.2e, bound %.2e), "
                 "demoted up to %.2f R from the wall; histogram (level: steps):",
@@ -555,7 +555,7 @@ TEST(Doubling, SameHashForOneTwoThreeAndEightThreadsAndRepeatedRuns) {
 // 5. Energy of an undamped dense packing
 
 TEST(Doubling, UndampedPackingEnergyErrorIsBoundedWithoutTrend) {
-  // PHYSICS.md 6.6 measure: |dE| <= 1e-3 of the initial kinetic + elastic energy, no trend. Eight
+  // docs/physics.md 8.6 measure: |dE| <= 1e-3 of the initial kinetic + elastic energy, no trend. Eight
   // packings that differ in their random draws, 2e4 sync intervals each, under doubling at the default
   // tolerance with level_max at omega_max h = 0.3.
   const PackingEnsemble e = packing_ensemble(1e-2, 20'000, 8);
@@ -577,7 +577,7 @@ TEST(Doubling, UndampedPackingEnergyErrorIsBoundedWithoutTrend) {
 // 6. method = exact under doubling
 
 TEST(Doubling, ExactMethodHeadOnPairMatchesTheOracleRestitution) {
-  // PHYSICS.md 6.2: m = 1 kg each, k = 1e5 N/m; zeta = 0.1 (e = 0.74408 force-zero, 0.72925 overlap)
+  // docs/physics.md 8.2: m = 1 kg each, k = 1e5 N/m; zeta = 0.1 (e = 0.74408 force-zero, 0.72925 overlap)
   // and undamped (e = 1). The exact stepper is exact for an isolated pair at any step.
   const Real radius = 0.05, gap = 1e-3, v = 0.5;
   for (Separation sep : {Separation::force_zero, Separation::overlap}) {
@@ -607,7 +607,7 @@ TEST(Doubling, ExactMethodHeadOnPairMatchesTheOracleRestitution) {
 }
 
 TEST(Doubling, FreeFallIsExactUnderDoublingWithBothMethods) {
-  // PHYSICS.md 6.1: exact at any step; only round-off, growing at most ~ n eps |x| over n steps.
+  // docs/physics.md 8.1: exact at any step; only round-off, growing at most ~ n eps |x| over n steps.
   const Vec3 g(0.3, -0.2, -9.81), x0(0.1, -2.0, 50.0), v0(1.5, 2.0, 3.0);
   for (Method method : {Method::verlet, Method::exact}) {
     SCOPED_TRACE(method == Method::exact ? "exact" : "verlet");

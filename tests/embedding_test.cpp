@@ -1,6 +1,6 @@
 // The World's embedding API (world_embedding.cpp): loading a scene file, the callback at sync
 // times, contact forces against wall loads (Newton's third law), feeding a particle into free
-// space (free-flight oracle, PHYSICS.md 6.1) and discharging one in contact (momentum and energy
+// space (free-flight oracle, docs/physics.md 8.1) and discharging one in contact (momentum and energy
 // books), and bitwise thread-count determinism of runs with both under both step controls.
 #include <gtest/gtest.h>
 
@@ -135,7 +135,7 @@ WorldConfig floor_scene(Control control) {
 }
 
 TEST(Embedding, AddedParticleFallsFreelyAsTheOracle) {
-  // PHYSICS.md 6.1: x = x0 + v0 t + g t^2 / 2, exact for Verlet at any step up to round-off.
+  // docs/physics.md 8.1: x = x0 + v0 t + g t^2 / 2, exact for Verlet at any step up to round-off.
   for (Control control : {Control::fixed, Control::doubling}) {
     SCOPED_TRACE(control == Control::fixed ? "fixed" : "doubling");
     World world(floor_scene(control));

@@ -1,10 +1,10 @@
-// Friction and rolling resistance in the exact stepper (exact_friction.h; PHYSICS.md 1.3-1.5, 3.1):
-// the seed slope of PHYSICS.md 6.8 (both rolling modes, sphere and disc) at dt = 0.1, 0.01 and 0.001
+// Friction and rolling resistance in the exact stepper (exact_friction.h; docs/physics.md 2.3-2.5, 5.6):
+// the seed slope of docs/physics.md 8.8 (both rolling modes, sphere and disc) at dt = 0.1, 0.01 and 0.001
 // against the oracle table, where velocity Verlet at dt = 0.1 (omega0 dt = 2.24 > 2) fails; a sphere
-// and a disc launched sliding on a flat (6.3); a ball held at rest on an incline at a step longer than
-// the contact period (6.4); the World running the same flow as the stepper, and accepting pairs; the seed
-// slope under step doubling (PHYSICS.md 4): the oracle at two tolerances, restart bit for bit, and the
-// same hash for one and two threads.
+// and a disc launched sliding on a flat (docs/physics.md 8.3); a ball held at rest on an incline at a
+// step longer than the contact period (docs/physics.md 8.4); the World running the same flow as the
+// stepper, and accepting pairs; the seed slope under step doubling (docs/physics.md 6): the oracle at
+// two tolerances, restart bit for bit, and the same hash for one and two threads.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -76,7 +76,7 @@ Trajectory run_exact(const Scene& scene, RollingMode mode, Real dt, Real until) 
   return out;
 }
 
-/// Oracle row of PHYSICS.md 6.8 (engine variant).
+/// Oracle row of docs/physics.md 8.8 (engine variant).
 struct SlopeCase {
   const char* name;
   bool disc;
@@ -97,7 +97,7 @@ struct SlopeMeasured {
   double max_speed_after_stop = 0, final_speed = 0;
 };
 
-/// The events of PHYSICS.md 6.8 from a trajectory, by linear interpolation between samples: rolling
+/// The events of docs/physics.md 8.8 from a trajectory, by linear interpolation between samples: rolling
 /// where the slip v - |omega| a reaches zero, stop where the down-slope (+x) speed falls below 1e-3 v0.
 SlopeMeasured measure(const std::vector<Sample>& samples) {
   SlopeMeasured m;
@@ -161,10 +161,10 @@ TEST_P(ExactSeedSlope, MatchesTheOracleTableWithinHalfAPercent) {
   EXPECT_PRED2(within, m.roll_s, c.roll_s) << "distance at rolling [m]";
   EXPECT_PRED2(within, m.stop_t, c.stop_t) << "stop time [s]";
   EXPECT_PRED2(within, m.stop_s, c.stop_s) << "stop distance [m]";
-  // PHYSICS.md 6.8: then static for all later time (tan(theta) = 0.2 < mu_rs = 0.3).
+  // docs/physics.md 8.8: then static for all later time (tan(theta) = 0.2 < mu_rs = 0.3).
   EXPECT_LT(m.max_speed_after_stop, 1e-2 * 10) << "the ball moves again after stopping";
   EXPECT_LT(m.final_speed, 1e-4 * 10) << "the ball is not at rest at the end";
-  // The switch sequence of PHYSICS.md 1.5: the slide ends in stick (rolling) once, the roll in the static
+  // The switch sequence of docs/physics.md 2.5: the slide ends in stick (rolling) once, the roll in the static
   // hold once; nothing switches after the hold.
   int stick = 0, hold = 0;
   // The launch slides at once (the dashpot alone would need more than mu_s F_n); in seed mode the rolling
@@ -208,7 +208,7 @@ SlopeMeasured run_verlet(const SlopeCase& c, double dt) {
 }
 
 TEST(ExactSeedSlope, VerletAtTheLongestStepMissesTheOracle) {
-  // omega0 dt = 22.36 * 0.1 = 2.24 > 2 (PHYSICS.md 2): velocity Verlet is unstable on the contact, so
+  // omega0 dt = 22.36 * 0.1 = 2.24 > 2 (docs/physics.md 4.2): velocity Verlet is unstable on the contact, so
   // at least one of the five figures of every row is off by more than 0.5% (or the run diverges),
   // while the exact stepper meets all of them at this step (the test above).
   for (const SlopeCase& c : slope_cases) {
@@ -240,7 +240,7 @@ TEST(ExactFriction, WorldRunsTheStepperFlow) {
 }
 
 TEST(ExactFriction, SlidingOnAFlatMatchesTheTheory) {
-  // PHYSICS.md 6.3 with the engine's lever arm a = R - delta0/2: v' = -mu g, omega' = mu m g a / I, so
+  // docs/physics.md 8.3 with the engine's lever arm a = R - delta0/2: v' = -mu g, omega' = mu m g a / I, so
   // the slip vanishes at t = v0 / (mu g (1 + m a^2 / I)) with v = v0 - mu g t; no rolling resistance.
   for (const bool disc : {false, true}) {
     Scene scene = slope_scene(disc, RollingMode::standard);
@@ -270,7 +270,7 @@ TEST(ExactFriction, SlidingOnAFlatMatchesTheTheory) {
 }
 
 TEST(ExactFriction, HoldsABallAtRestOnAnInclineAtAnyStep) {
-  // PHYSICS.md 6.4: tan(theta) = 0.2 <= mu_s and <= mu_rs: a sphere set down at rest stays held; its
+  // docs/physics.md 8.4: tan(theta) = 0.2 <= mu_s and <= mu_rs: a sphere set down at rest stays held; its
   // springs take up the load (the ball rocks by millimetres) and it comes to rest. The normal force is
   // steady, so the flow is exact at any step: steps from longer than the contact period
   // (2 pi / omega0 = 0.28 s) to 0.01 s give the same state at common times, to round-off.
@@ -384,7 +384,7 @@ TEST(ExactFriction, ClosedFormPiecesMatchTheMatrixExponential) {
     // the square root of round-off), so a few long calls differ by more than round-off: bounded, and rare.
     EXPECT_LT(worst, 1e-6) << "trial " << trial;
     loose += worst > 1e-10;
-    // A contact that sticks at the end holds a static force within mu_s F_n (PHYSICS.md 1.3).
+    // A contact that sticks at the end holds a static force within mu_s F_n (docs/physics.md 2.3).
     if (!(h_closed.mode & mode_sliding)) {
       const Vec3 u = closed.velocity - c.arm * closed.spin.cross(n) - c.arm_j * closed.spin_j.cross(n);
       const Vec3 slip = u - u.dot(n) * n;
@@ -417,7 +417,7 @@ TEST(ExactFriction, AStaticForceBeyondMuSTimesTheLoadSlides) {
   }
 }
 
-// ---- Step doubling (PHYSICS.md 4): the island carries the wall contact's history through its trials --
+// ---- Step doubling (docs/physics.md 6): the island carries the wall contact's history through its trials --
 
 /// The seed slope (sphere, standard mode) with method exact under step doubling: steps from dt_base =
 /// 0.1 s down to 0.1 * 2^-14 s as bench/seed_experiment.py runs it, but with sync intervals (the World's

@@ -1,5 +1,5 @@
 // Friction and rolling resistance on pair contacts and cylinder walls in the exact stepper
-// (tangential_kick.h, exact_stepper.h; PHYSICS.md 1.3-1.5, 3.4): an oblique frictional collision of two
+// (tangential_kick.h, exact_stepper.h; docs/physics.md 2.3-2.5, 5.6): an oblique frictional collision of two
 // spheres against velocity Verlet at a very small step (independent methods) and the exact stepper at a
 // step longer than the contact against itself at a small one; the gross-slip collision against the
 // Coulomb impulse result; linear and angular momentum to round-off in a frictional cluster; a ball

@@ -1,4 +1,4 @@
-// The exact stepper (method = "exact", PHYSICS.md 3.3, 3.4) against analytic oracles: free fall at
+// The exact stepper (method = "exact", docs/physics.md 5.3, 5.4) against analytic oracles: free fall at
 // any level, the head-on pair of 6.2 at steps from a fraction of the contact to ten contacts long
 // (restitution and contact time to 1e-9), an undamped contact conserving energy to round-off at any
 // step, an oblique collision against the classical scattering integral (second-order convergence,
@@ -50,7 +50,7 @@ TEST(ExactStepper, FreeFallIsExactAtEveryLevel) {
   }
 }
 
-/// PHYSICS.md 6.2: m = 1 kg each (m* = 0.5), k = 1e5 N/m, zeta = 0.1.
+/// docs/physics.md 8.2: m = 1 kg each (m* = 0.5), k = 1e5 N/m, zeta = 0.1.
 struct HeadOn {
   Real restitution;
   Real contact_time;
@@ -71,7 +71,7 @@ HeadOn head_on(Separation separation, Real dt, Real zeta) {
   const State& s = w.state();
   const Real v_out = s.velocity[1].x() - s.velocity[0].x();  // separation speed
   // After release the pair is in free flight: the gap at the end dates the release exactly. At a
-  // force-zero release the residual overlap is -c delta'/k = (c/k) v_out (PHYSICS.md 1.1).
+  // force-zero release the residual overlap is -c delta'/k = (c/k) v_out (docs/physics.md 2.1).
   const Real omega0 = std::sqrt(1e5 / 0.5), c_over_k = 2 * zeta / omega0;
   const Real residual = separation == Separation::force_zero ? c_over_k * v_out : 0.0;
   const Real distance = s.position[1].x() - s.position[0].x();
@@ -261,7 +261,7 @@ TEST(ExactStepper, ObliqueCollisionConvergesToTheScatteringIntegralAtSecondOrder
     SCOPED_TRACE(testing::Message() << "impact angle " << angle);
     const Real b = 0.1 * std::sin(angle * M_PI / 180);
     const Real chi = scattering_angle(1e5, 0.5, 1, 0.1, b);
-    // Least-squares order over steps spanning 16x (PHYSICS.md 6.6).
+    // Least-squares order over steps spanning 16x (docs/physics.md 8.6).
     Real sx = 0, sy = 0, sxx = 0, sxy = 0, finest = 0;
     const int n = 5;
     for (int i = 0; i < n; ++i) {

@@ -1,10 +1,10 @@
-// Numerical extremes (PHYSICS.md section 8), the full sweep of the `long` label: the ranges of the
+// Numerical extremes (docs/physics.md section 9), the full sweep of the `long` label: the ranges of the
 // default suite (extremes_test.cpp) sampled densely, the packing at 10 x the Cundall limit under
 // doubling, 30 levels over 1e6 sync intervals, and 1e7-step undamped runs with energy and momentum
 // drift budgets. Every test writes its section of a Markdown summary table (one row per case: case,
 // parameters, stepper / control, outcome, measured figure against its bound) to the path in
 // DEM_EXTREMES_TABLE, or to extremes_summary.md in the working directory.
-// Every expected value comes from PHYSICS.md formulas or conservation laws; none is copied from the
+// Every expected value comes from docs/physics.md formulas or conservation laws; none is copied from the
 // engine's output.
 #include <gtest/gtest.h>
 
@@ -287,7 +287,7 @@ void cundall_section(Control control, int order, const char* title) {
           figure += "; " + verdict("abs(e - 1)", std::abs(r.restitution - 1), 1e-9);
         }
         rows.push_back({scene_name(scene),
-                        fmt(scene == CundallScene::packing ? "f = %g: dt = f x 2 / omega_max (PHYSICS.md 2 bound), omega h = %.3g"
+                        fmt(scene == CundallScene::packing ? "f = %g: dt = f x 2 / omega_max (docs/physics.md 4.2 bound), omega h = %.3g"
                                                            : "f = %g: dt = f x 2 sqrt(m*/k), omega h = %.3g",
                             f, r.omega_h) +
                             (control == Control::doubling ? ", levels -12 .. 0, tol 1e-4" : ""),

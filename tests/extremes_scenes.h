@@ -1,6 +1,6 @@
 #pragma once
 // Scenes, oracles and the run audit shared by extremes_test.cpp (default suite) and
-// extremes_long_test.cpp (label `long`): the numerical extremes of PHYSICS.md section 8.
+// extremes_long_test.cpp (label `long`): the numerical extremes of docs/physics.md section 9.
 //
 // The audit of a run is what a careful caller of the World does after every sync interval:
 //  - the status of advance_sync_interval: non_finite stops the run (a clear diagnosis);
@@ -14,7 +14,7 @@
 //  - independently of the books, the energy itself is held against the conservation law of the
 //    scenes here (no moving walls, no body force): E(t) <= E0. A rise beyond kGrowthLimit E0 that
 //    the books do not flag is growth that passed silently.
-// Every oracle below is derived from PHYSICS.md formulas (1.2, 2, 3.1, 6.2, 6.6) or a conservation
+// Every oracle below is derived from the formulas of docs/physics.md 2.2, 4.2, 5.1, 8.2 and 8.6 or a conservation
 // law; none is a number taken from the engine's output.
 #include <gtest/gtest.h>
 
@@ -182,7 +182,7 @@ inline int finest_level(const World& w) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Oracles (PHYSICS.md 1.2 and 3.1, independent of engine/damping.cpp and engine/propagator.cpp)
+// Oracles (docs/physics.md 2.2 and 5.1, independent of engine/damping.cpp and engine/propagator.cpp)
 
 /// Restitution for damping ratio zeta; the overlap convention has no rebound for zeta >= 1.
 inline Real restitution_oracle(Real zeta, Separation sep) {
@@ -190,7 +190,7 @@ inline Real restitution_oracle(Real zeta, Separation sep) {
   return oracle_from_ratio(zeta, sep).restitution;
 }
 
-/// omega0 t_c (PHYSICS.md 1.2), infinite where the overlap convention never separates.
+/// omega0 t_c (docs/physics.md 2.2), infinite where the overlap convention never separates.
 inline Real contact_time_oracle(Real zeta, Separation sep) {
   if (sep == Separation::overlap && zeta >= 1) return std::numeric_limits<Real>::infinity();
   return oracle_from_ratio(zeta, sep).time;
@@ -198,7 +198,7 @@ inline Real contact_time_oracle(Real zeta, Separation sep) {
 
 /// Overlap rate d delta / dt at time t after onset of the free oscillator delta'' + 2 beta delta' +
 /// omega0^2 delta = 0, delta(0) = 0, delta'(0) = v: the overlap convention while the contact lasts.
-/// Written to avoid cancellation next to zeta = 1 and overflow for strong damping (PHYSICS.md 3.1).
+/// Written to avoid cancellation next to zeta = 1 and overflow for strong damping (docs/physics.md 5.1).
 inline Real overlap_rate_oracle(Real zeta, Real omega0, Real v, Real t) {
   const Real beta = zeta * omega0;
   const Real one_minus = (1 - zeta) * (1 + zeta);  // 1 - zeta^2 without cancellation
@@ -297,7 +297,7 @@ inline Impact run_impact(Target target, Stepper s, Real k, Real v, Real dt, Real
 }
 
 // ---------------------------------------------------------------------------------------------
-// Stability sweep (PHYSICS.md 2): dt = f x the Cundall-Strack limit 2 sqrt(m*/k) of the scene.
+// Stability sweep (docs/physics.md 4.2): dt = f x the Cundall-Strack limit 2 sqrt(m*/k) of the scene.
 
 enum class CundallScene { pair, walls, packing };
 
@@ -320,7 +320,7 @@ struct CundallRun {
 
 /// The pair: two 10 g, 1 cm spheres at 0.1 m/s, k = 1e4 N/m (m* = 5 g); the particle between walls:
 /// 10 g at 0.1 m/s, k = 1e4 (m* = m); the packing of contact_scenes.h, whose limit is taken with the
-/// rigorous bound omega_max^2 <= max_i sum_j k/m*_ij (PHYSICS.md 2), evaluated at t = 0.
+/// rigorous bound omega_max^2 <= max_i sum_j k/m*_ij (docs/physics.md 4.2), evaluated at t = 0.
 /// Doubling: level_max at that step, level_min 12 levels below, tolerance 1e-4.
 inline CundallRun run_cundall(CundallScene scene, Stepper s, Real f, long intervals, Real zeta = 0) {
   const Real k = 1e4, m = 0.01, r = 0.01, v = 0.1;
@@ -360,7 +360,7 @@ inline CundallRun run_cundall(CundallScene scene, Stepper s, Real f, long interv
 inline const std::vector<Real> decades_of_stiffness{1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9};
 inline const std::vector<Real> cundall_factors{0.5, 1.0, 1.01, 2.0, 10.0};
 
-// 1. The head-on pair of PHYSICS.md 6.2 (1 kg each, m* = 0.5 kg, R = 5 cm) at 0.1 m/s closing speed
+// 1. The head-on pair of docs/physics.md 8.2 (1 kg each, m* = 0.5 kg, R = 5 cm) at 0.1 m/s closing speed
 // (delta_max = v / omega0 <= 0.14 R at k = 1e2), 1 mm apart, followed until three contact times
 // after onset. Returns the restitution and the momentum change.
 struct PairRun {
@@ -471,8 +471,8 @@ struct ToleranceRun {
 
 // The damped wall impact (zeta = 0.1, omega0 = 1e3) under doubling: dt_base = 4 / omega0 (beyond the
 // limit), level_min -16 (omega0 h_min = 6.1e-5), 40 intervals. A single run's error depends on where
-// the onset falls in the step pattern, and errors at onset and release cancel by chance (PHYSICS.md
-// 6.6): the error of a tolerance is the maximum over `phases` onset times spread over a base step.
+// the onset falls in the step pattern, and errors at onset and release cancel by chance (docs/physics.md
+// 8.6): the error of a tolerance is the maximum over `phases` onset times spread over a base step.
 inline constexpr int tol_level_min = -16;
 inline constexpr long tol_intervals = 40;
 
@@ -689,7 +689,7 @@ inline void publish_section(int order, const std::string& title, const std::vect
   const std::string tmp = path + ".tmp";
   {
     std::ofstream out(tmp, std::ios::trunc);
-    out << "# Extreme-value suite (PHYSICS.md section 8): summary\n\n"
+    out << "# Extreme-value suite (docs/physics.md section 9): summary\n\n"
         << "Written by `extremes_long_test` (ctest label `long`); one section per test, one row per case. "
         << "Outcomes: bounded (every interval ok, nothing flagged); stopped (StepStatus::non_finite); flagged: "
         << "energy books show growth (World::energy_balance error > 0.5 of the energy in play; the run stops there, "

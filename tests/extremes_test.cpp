@@ -1,7 +1,7 @@
-// Numerical extremes (PHYSICS.md section 8), the short cases of the default suite; the full sweep,
+// Numerical extremes (docs/physics.md section 9), the short cases of the default suite; the full sweep,
 // the 1e7-step runs and the summary table are in extremes_long_test.cpp (label `long`).
 //  1. Stiffness 1e2 .. 1e9 N/m at one fixed step (omega0 h from 0.014 to 45): the exact stepper
-//     gives the PHYSICS.md 1.2 restitution to 1e-9 in both separation conventions; Verlet below the
+//     gives the docs/physics.md 2.2 restitution to 1e-9 in both separation conventions; Verlet below the
 //     Cundall limit stays within C omega0 h (damped) and C (omega0 h)^2 (undamped) at every k; step
 //     doubling at the same base step adapts (the finest level it uses is below the limit).
 //  2. Mass ratios: a light particle bounces off a 1e20 kg particle, an infinite-mass particle and a
@@ -20,7 +20,7 @@
 //     unflagged.
 //  7. 30 and 40 levels between level_min and level_max keep integer time exact.
 //  8. The energy books of undamped runs show no dissipation.
-// Every expected value comes from PHYSICS.md formulas or conservation laws; none is copied from the
+// Every expected value comes from docs/physics.md formulas or conservation laws; none is copied from the
 // engine's output.
 //
 #include <gtest/gtest.h>
@@ -48,7 +48,7 @@ using namespace dem::test;
 
 TEST(Extremes, ExactHeadOnPairMatchesTheOracleForStiffness1e2To1e9AtOneStep) {
   // dt = 1 ms for every k: omega0 h from 0.014 (k = 1e2) to 45 (k = 1e9), the whole contact inside
-  // one step at the stiff end. PHYSICS.md 3.3: the isolated pair is exact at any step.
+  // one step at the stiff end. docs/physics.md 5.3: the isolated pair is exact at any step.
   Real worst = 0;
   for (Separation sep : {Separation::force_zero, Separation::overlap})
     for (Real zeta : {0.0, 0.1, 0.5})
@@ -118,7 +118,7 @@ TEST(Extremes, DoublingAtOneBaseStepAdaptsToStiffness1e2To1e9) {
 // 2. Mass ratios and tiny reduced masses
 
 TEST(Extremes, LightParticleBouncesOffA1e20KgParticleAnInfiniteMassAndAWallAlike) {
-  // PHYSICS.md 1.6: m* = 1 / (1/m + 1e-20) = m to round-off, so all three give the same bounce.
+  // docs/physics.md 1.3: m* = 1 / (1/m + 1e-20) = m to round-off, so all three give the same bounce.
   // Round-off: the overlap is a difference of positions of size ~R = 100 delta_max, so each
   // evaluation carries ~eps R / delta_max = 2e-14 of relative error; 1e-12 allows 50 of them.
   for (Method method : {Method::verlet, Method::exact}) {
@@ -132,7 +132,7 @@ TEST(Extremes, LightParticleBouncesOffA1e20KgParticleAnInfiniteMassAndAWallAlike
     }
     EXPECT_NEAR(heavy.light_velocity, wall.light_velocity, 1e-12 * light_v);
     EXPECT_NEAR(immovable.light_velocity, wall.light_velocity, 1e-12 * light_v);
-    // The restitution of PHYSICS.md 1.2 with m* = m: exact to 1e-9; Verlet within C omega0 h.
+    // The restitution of docs/physics.md 2.2 with m* = m: exact to 1e-9; Verlet within C omega0 h.
     const Real e = restitution_oracle(light_zeta, Separation::force_zero);
     EXPECT_NEAR(-wall.light_velocity / light_v, e, method == Method::exact ? 1e-9 : kRestitutionC * 0.05);
     // The 1e20 kg particle takes the impulse (1 + e) m v: its velocity is (1 + e) m v / M.
@@ -146,7 +146,7 @@ TEST(Extremes, LightParticleBouncesOffA1e20KgParticleAnInfiniteMassAndAWallAlike
 }
 
 TEST(Extremes, PairsWithMassRatiosUpTo1e12ConserveMomentumAndMatchTheRestitution) {
-  // zeta is given, so the relative restitution is the oracle's at every m* (PHYSICS.md 1.2);
+  // zeta is given, so the relative restitution is the oracle's at every m* (docs/physics.md 2.2);
   // momentum, the heavy particle's included (its velocity ~1e-14 m/s at 1e12), to round-off.
   for (Method method : {Method::verlet, Method::exact})
     for (Real ratio : {1.0, 1e3, 1e6, 1e12}) {
@@ -193,7 +193,7 @@ TEST(Extremes, ExactStepperDampingRatiosFrom0To1e3MatchTheClosedForms) {
   const Real e_critical = std::exp(-2.0);
   for (Real zeta : extreme_ratios) {
     SCOPED_TRACE(::testing::Message() << "zeta " << zeta);
-    // Force-zero: the restitution of PHYSICS.md 1.2 in its three branches.
+    // Force-zero: the restitution of docs/physics.md 2.2 in its three branches.
     const WallDamped fz = damped_on_wall(Method::exact, zeta, Separation::force_zero, 0.7);
     EXPECT_EQ(fz.audit.outcome, Outcome::bounded);
     expect_sound(fz.audit);
@@ -226,7 +226,7 @@ TEST(Extremes, ExactStepperDampingRatiosFrom0To1e3MatchTheClosedForms) {
 
 TEST(Extremes, VerletDampingRatiosFrom0To1e3StayWithinTheirBoundOrAreFlagged) {
   // At omega0 h = 0.05 (below the undamped limit 2), zeta up to 1 + 1e-8: within C omega0 h. For
-  // zeta = 1e3 the damped limit 2 (sqrt(1 + zeta^2) - zeta) = 1e-3 (PHYSICS.md 2) is far below: at
+  // zeta = 1e3 the damped limit 2 (sqrt(1 + zeta^2) - zeta) = 1e-3 (docs/physics.md 4.2) is far below: at
   // omega0 h = 5e-4 the restitution stays in [0, 1] near the oracle; at 0.05 the explicit dashpot
   // throws the particle back with more energy than it came with, which must be flagged.
   for (Real zeta : extreme_ratios) {
@@ -256,7 +256,7 @@ TEST(Extremes, VerletDampingRatiosFrom0To1e3StayWithinTheirBoundOrAreFlagged) {
 // 4. Beyond the Cundall-Strack limit
 
 TEST(Extremes, VerletAndExactBeyondTheCundallLimitStayBoundedOrStopWithADiagnosis) {
-  // dt = f x 2 sqrt(m*/k) for f = 0.5, 1, 1.01, 2, 10 (PHYSICS.md 2): whatever happens, never a NaN
+  // dt = f x 2 sqrt(m*/k) for f = 0.5, 1, 1.01, 2, 10 (docs/physics.md 4.2): whatever happens, never a NaN
   // in an ok state and never growth the books miss (expect_sound). Beyond that, physics:
   //  - Verlet at f = 0.5 (omega0 h = 1) on one undamped contact conserves the shadow energy
   //    H - (h^2/8) F^2/m, so E <= E0 / (1 - (omega0 h)^2 / 4): a rise of at most 1/3;
@@ -291,7 +291,7 @@ TEST(Extremes, VerletAndExactBeyondTheCundallLimitStayBoundedOrStopWithADiagnosi
 TEST(Extremes, DoublingBeyondTheCundallLimitAdapts) {
   // The same setups with level_max at f x the limit, level_min 12 levels below, tolerance 1e-4: the
   // controller demotes Verlet below the limit (omega h < 2 at the finest level used), the energy
-  // stays within 3e-2 of E0 (PHYSICS.md 6.6: the bound for multi-contact runs at omega_max h = 1.5),
+  // stays within 3e-2 of E0 (docs/physics.md 8.6: the bound for multi-contact runs at omega_max h = 1.5),
   // nothing is flagged, and the damped pair's restitution is within 1e-3 of the oracle (ten times the
   // tolerance). The packing at f = 10 is in the long suite (a few seconds).
   for (Real f : cundall_factors)
@@ -409,7 +409,7 @@ TEST(Extremes, ImpactsWithOverlapsUpToOneAndAHalfRadiiBounceOnTheirSideAndAreFla
 
 TEST(Extremes, ImpactsWhoseOverlapWouldExceedTheDiameterAreFlaggedByEveryStepper) {
   // delta_max = 2.5 R: the linear law cannot stop the particle before it is wholly behind the wall
-  // (overlap 2R) or the centres cross. PHYSICS.md 8: flag the non-physical overlap, never pass
+  // (overlap 2R) or the centres cross. docs/physics.md 9.2: flag the non-physical overlap, never pass
   // through. Velocity Verlet's overlap is watched after every step (fixed) or round (doubling); the
   // exact stepper, where a whole impact may fit in one step (omega0 dt up to 10), reports the
   // deepest overlap inside the step (normal_flow.h, OverlapWatch). So every such impact is flagged,
@@ -430,7 +430,7 @@ TEST(Extremes, ImpactsWhoseOverlapWouldExceedTheDiameterAreFlaggedByEveryStepper
 
 TEST(Extremes, StepsCarryingAParticleSeveralDiametersDoNotTunnelWithExactOrDoubling) {
   // The exact stepper finds the onset on the true path; doubling's anticipation demotes before the
-  // contact (PHYSICS.md 5). The bounce is elastic and the overlap never beyond the law's 0.1 R.
+  // contact (docs/physics.md 6.8). The bounce is elastic and the overlap never beyond the law's 0.1 R.
   for (Target target : {Target::wall, Target::particle})
     for (Real diameters : {1.5, 3.0, 30.0})
       for (Stepper s : {Stepper{Method::exact, Control::fixed}, Stepper{Method::exact, Control::doubling},
@@ -446,7 +446,7 @@ TEST(Extremes, StepsCarryingAParticleSeveralDiametersDoNotTunnelWithExactOrDoubl
 }
 
 TEST(Extremes, VerletAtAFixedStepLongerThanTheParticleDoesNotTunnelSilently) {
-  // Velocity Verlet at a fixed step cannot resolve the contact, but PHYSICS.md 8 asks that the
+  // Velocity Verlet at a fixed step cannot resolve the contact, but docs/physics.md 9.2 asks that the
   // particle never pass through silently: the World watches h |v| / R after every step and `dem run`
   // warns beyond 1 (a step that long can step over a contact). Every configuration must end on its
   // side, or be flagged by that watch (or by the energy books or the overlap watch).
@@ -475,7 +475,7 @@ TEST(Extremes, ThirtyAndFortyLevelsKeepIntegerTimeExact) {
       EXPECT_EQ(r.audit.non_finite_ok, 0);
       EXPECT_TRUE(r.clock_exact) << "clock or time() off after some interval";
       EXPECT_TRUE(r.ticks_covered) << "accepted steps do not cover the intervals' ticks exactly";
-      // Free flight is exact at any step: only round-off, ~ n eps |x| (PHYSICS.md 6.1).
+      // Free flight is exact at any step: only round-off, ~ n eps |x| (docs/physics.md 8.1).
       EXPECT_LE(r.free_error, 4.0 * n * kEps * 11.0);
       EXPECT_LE(r.energy_change, method == Method::exact ? 1e-10 : 1e-2);
       EXPECT_EQ(r.forced, 0u) << "the contact never needs level_min";

@@ -1,4 +1,4 @@
-// Power draw against mill speed (PHYSICS.md 7), a sweep under the ctest label `long`: power rises
+// Power draw against mill speed (docs/physics.md 7.2), a sweep under the ctest label `long`: power rises
 // with speed while the charge cascades and cataracts, peaks short of critical speed, and falls once
 // the charge centrifuges (it then rides with the shell and needs little torque).
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Mills (PHYSICS.md 7): a single ball's motion against the critical speed, power draw against speed,
+// Mills (docs/physics.md 7): a single ball's motion against the critical speed, power draw against speed,
 // and the energy balance of a running charge, on small 2D mills.
 #include <gtest/gtest.h>
 
@@ -46,7 +46,7 @@ struct MillRun {
 };
 
 TEST(Mill, CriticalSpeedMatchesTheClassicFormula) {
-  // N_c = 42.3 / sqrt(D - d) rpm (PHYSICS.md 7): D = 5 m, d = 0.1 m gives 19.1 rpm.
+  // N_c = 42.3 / sqrt(D - d) rpm (docs/physics.md 7.1): D = 5 m, d = 0.1 m gives 19.1 rpm.
   EXPECT_NEAR(critical_speed(5, 0.1, 9.81) * 60 / (2 * pi), 42.3 / std::sqrt(4.9), 0.01);
 }
 

@@ -1,9 +1,9 @@
 // Tests of engine/normal_flow.h: the exact flow of one normal contact with onset and release
-// (PHYSICS.md 1.1, 3.3) under a constant relative forcing a (gravity pressing a ball onto a floor).
+// (docs/physics.md 2.1, 5.3) under a constant relative forcing a (gravity pressing a ball onto a floor).
 // Oracles, written here independently of engine/propagator.h: the closed-form contact flow (damped
 // modes about the equilibrium overlap a / omega0^2 = m g / k), free flight as a parabola, onsets as
 // roots of quadratics, a release inside a contact by bisection on the closed form, and the analytic
-// bounce of an undamped ball on a floor (PHYSICS.md 6.6: e = 1, contact time (pi + 2 theta) / omega0).
+// bounce of an undamped ball on a floor (docs/physics.md 8.6: e = 1, contact time (pi + 2 theta) / omega0).
 #include "engine/normal_flow.h"
 
 #include <gtest/gtest.h>
@@ -18,7 +18,7 @@
 namespace dem {
 namespace {
 
-// The PHYSICS.md 6.2 contact, m* = 0.5 kg and k = 1e5 N/m, pressed by gravity onto an immovable floor.
+// The docs/physics.md 8.2 contact, m* = 0.5 kg and k = 1e5 N/m, pressed by gravity onto an immovable floor.
 const Real kOmega0 = std::sqrt(1e5 / 0.5);  // [1/s]
 constexpr Real kGravity = 9.81;             // [m/s^2]
 const Real kRestOverlap = kGravity / (kOmega0 * kOmega0);  // m g / k [m]
@@ -66,7 +66,7 @@ Real rising_root(Real c0, Real c1, Real c2) {
   return t >= 0 ? t : kNever;
 }
 
-/// Onset time from a free state under a > 0 (PHYSICS.md 1.1): the overlap rises through zero or,
+/// Onset time from a free state under a > 0 (docs/physics.md 2.1): the overlap rises through zero or,
 /// under force_zero, the force rises through zero while the bodies still overlap.
 Real onset_after(const NormalOscillator& o, Separation separation, Real a, const NormalState& s) {
   Real t = rising_root(s.delta, s.rate, 0.5 * a);
@@ -190,7 +190,7 @@ TEST(NormalFlow, BodyRestingAtTouchStaysSupported) {
 // its last part in free flight, through the floor. An undamped ball bounces for ever with e = 1 even
 // under gravity: from impact speed v, the contact lasts (pi + 2 theta) / omega0 with
 // tan theta = (m g / k) omega0 / v (it starts and ends m g / k short of the equilibrium overlap;
-// undamped, PHYSICS.md 6.6), and the flight 2 v / g. Start at the apex, run 100 bounce periods in one call.
+// undamped, docs/physics.md 8.6), and the flight 2 v / g. Start at the apex, run 100 bounce periods in one call.
 
 TEST(NormalFlow, LongStepFollowsEveryBounce) {
   const Real a = kGravity;
@@ -212,7 +212,7 @@ TEST(NormalFlow, LongStepFollowsEveryBounce) {
 // ---------------------------------------------------------------------------------------------
 // A strongly damped contact released at force zero keeps a residual overlap; pressed again (here by
 // a load of a few rest overlaps' worth), the force rises through zero while the bodies still overlap
-// and the contact restarts there (PHYSICS.md 1.1). Over-damped, the force then rises monotonically
+// and the contact restarts there (docs/physics.md 2.1). Over-damped, the force then rises monotonically
 // to its rest value: no second release. The onset must put the state on the pushing side of the
 // force-zero condition: a force left an ulp negative was taken by the release search for a
 // crossing, and onset and release then alternated an ulp apart (formerly up to the event cap, which
@@ -262,7 +262,7 @@ Real impact_peak(Real omega0, Real zeta, Real v) {
 }
 
 TEST(NormalFlow, PeakOverlapOfAnImpactMatchesTheClosedForm) {
-  // The watch of the deepest overlap (PHYSICS.md 8) inside a step that holds the whole impact and
+  // The watch of the deepest overlap (docs/physics.md 9.2) inside a step that holds the whole impact and
   // more (omega0 tau = 10): the first maximum of delta, in every damping regime.
   const Real v = 1;
   for (Real zeta : {0.0, 0.3, 1.0 - 1e-8, 1.0, 1.0 + 1e-8, 3.0, 1e3}) {

@@ -1,9 +1,9 @@
 // Tests of engine/propagator.h: the closed-form propagator of delta'' + 2 beta delta' + omega0^2 delta = a
-// (PHYSICS.md 3.1) and the force-zero / overlap-zero times (PHYSICS.md 3.3).
+// (docs/physics.md 5.1) and the force-zero / overlap-zero times (docs/physics.md 5.3).
 // Oracles: a long-double RK4 of the ODE written here (many small substeps), the head-on collision
-// values of PHYSICS.md 6.2, the closed forms of engine/damping.h (independent code, PHYSICS.md 1.2),
+// values of docs/physics.md 8.2, the closed forms of engine/damping.h (independent code, docs/physics.md 2.2),
 // and exact identities: semigroup Phi(h1) Phi(h2) = Phi(h1 + h2), energy conservation and exact
-// composition without damping (PHYSICS.md 6.6), the ODE's own derivative across branch switches.
+// composition without damping (docs/physics.md 8.6), the ODE's own derivative across branch switches.
 #include "engine/propagator.h"
 
 #include <gtest/gtest.h>
@@ -22,7 +22,7 @@ namespace {
 
 using Long = long double;
 constexpr Real kInfinity = std::numeric_limits<Real>::infinity();
-// The PHYSICS.md 6.2 pair: m* = 0.5 kg, k = 1e5 N/m.
+// The docs/physics.md 8.2 pair: m* = 0.5 kg, k = 1e5 N/m.
 const Real kOmega0 = std::sqrt(1e5 / 0.5);  // [1/s]
 
 // ---------------------------------------------------------------------------------------------
@@ -383,7 +383,7 @@ TEST(Propagator, UndampedEnergyConservedAndStepsCompose) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// PHYSICS.md 6.2: m* = 0.5, k = 1e5, zeta = 0.1, start at delta = 0 with rate = v_imp.
+// docs/physics.md 8.2: m* = 0.5, k = 1e5, zeta = 0.1, start at delta = 0 with rate = v_imp.
 
 TEST(ContactTimes, HeadOnOracle) {
   const Real beta = 0.1 * kOmega0;

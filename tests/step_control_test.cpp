@@ -1,4 +1,4 @@
-// Step-doubling control (PHYSICS.md 4): the error norm against hand-computed cases and its scaling
+// Step-doubling control (docs/physics.md 6.4, 6.6): the error norm against hand-computed cases and its scaling
 // with the step, the level decisions (reject and drop, accept, promote only when aligned, forced
 // accept at level_min), and Richardson extrapolation raising the order on a known series.
 #include <gtest/gtest.h>
@@ -57,7 +57,7 @@ TEST(StepControl, DifferencesWithinRoundOffOfTheStateAreNoError) {
 
 TEST(StepControl, ErrorOfVerletOnAnOscillatorScalesAsTheStepToTheOrder) {
   // x'' = -x with velocity Verlet: one step of h against two of h/2; the position difference is
-  // O(h^3) and the displacement O(h), so E ~ h^2 = h^p for p = 2 (PHYSICS.md 4).
+  // O(h^3) and the displacement O(h), so E ~ h^2 = h^p for p = 2 (docs/physics.md 6.4).
   auto verlet = [](Real x, Real v, Real h) {
     v += 0.5 * h * -x;
     x += h * v;

@@ -1,5 +1,5 @@
 // `dem check`: loads and validates a scene without running it, then prints what it holds and, for
-// every contact class, the stability and contact figures of PHYSICS.md 1.2 and 2, using the lightest
+// every contact class, the stability and contact figures of docs/physics.md 2.2 and 4.2, using the lightest
 // particles of each material (the worst case for the step).
 #include <cmath>
 #include <cstdio>
@@ -47,7 +47,7 @@ int check_command(const std::string& path, const std::vector<std::string>& overr
                 scene.run.until);
   }
 
-  // The exact stepper has no stability limit for one contact (PHYSICS.md 2); Verlet has.
+  // The exact stepper has no stability limit for one contact (docs/physics.md 4.2); Verlet has.
   const std::vector<ContactStability> classes = contact_stability(w);
   for (const ContactStability& s : classes) {
     std::printf("  contact %s: m* = %.4g kg, k = %.4g N/m, zeta = %.4g\n", s.label.c_str(), s.m_star, s.k_n, s.zeta);

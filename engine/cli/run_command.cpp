@@ -1,5 +1,5 @@
 // `dem run`: builds the world from a scene, advances it sync interval by sync interval and writes the
-// outputs of DESIGN.md (series.csv, walls.csv, summary.json, VTK snapshots with a .pvd index).
+// outputs of docs/design.md, Outputs (series.csv, walls.csv, summary.json, VTK snapshots with a .pvd index).
 // Outputs never shorten a step: a row is written at the first sync time at or after each multiple
 // of output.interval, and the run ends at the first sync time at or after `until`.
 #include <algorithm>

@@ -89,7 +89,7 @@ std::vector<std::string> stability_warnings(const WorldConfig& w, const std::vec
                          s.label + ": lower integrator.level_min");
     else
       warnings.push_back(format("dt = %g s exceeds the stability limit %.4g s of contact ", step, s.limit) + s.label +
-                         " (PHYSICS.md 2): lower integrator.dt, or use integrator.control = \"doubling\" or "
+                         " (docs/physics.md 4.2): lower integrator.dt, or use integrator.control = \"doubling\" or "
                          "integrator.method = \"exact\"");
   }
   return warnings;

@@ -1,5 +1,5 @@
 #pragma once
-// Stability figures of every contact class a scene can form (PHYSICS.md 1.2 and 2), from the lightest
+// Stability figures of every contact class a scene can form (docs/physics.md 2.2 and 4.2), from the lightest
 // particle of each material (the worst case for the step): shared by `dem check`, which prints them,
 // and `dem run`, which warns at load when velocity Verlet's step exceeds a limit.
 #include <string>

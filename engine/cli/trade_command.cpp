@@ -1,4 +1,4 @@
-// `dem trade`: the speed-accuracy trade of a scene (DESIGN.md, Measuring the trade). Runs the scene in
+// `dem trade`: the speed-accuracy trade of a scene (docs/design.md, Measuring the trade). Runs the scene in
 // process through the World API at each fixed step (--fixed) and each step-doubling tolerance (--tol),
 // compares each run with a reference run at common sync times and writes, into the output folder:
 //   trade.csv            one row per setting: control, method, dt, tolerance, cost, status, <metric>_error,
