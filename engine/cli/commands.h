@@ -33,7 +33,7 @@ struct TradeOptions {
   double until = -1;                   // -1: the scene's run.until [s]
   std::vector<std::string> overrides;  // --set key.path=value
   bool quiet = false;
-  bool plot = true;                    // call bench/plot_trade.py for trade.png
+  bool plot = true;                    // draw trade.png with plot_trade.py
 };
 
 int trade_command(const TradeOptions& options);

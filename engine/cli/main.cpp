@@ -4,14 +4,20 @@
 
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 
 #include "engine/cli/commands.h"
+#include "engine/cli/plot_script.h"
 #include "engine/cli/version.h"
 #include "engine/input_error.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"dem: discrete element simulations that tell you how accurate they are"};
-  app.set_version_flag("--version", std::string("dem ") + DEM_VERSION + " (git " + DEM_GIT_HASH + ")");
+  // The second line says where the plotting scripts come from (share/dem of an installation, or the
+  // source tree of a build-tree program; plot_script.h).
+  const std::filesystem::path scripts = dem::cli::plot_scripts_dir();
+  app.set_version_flag("--version", std::string("dem ") + DEM_VERSION + " (git " + DEM_GIT_HASH + ")\nplot scripts: " +
+                                        (scripts.empty() ? std::string("none found") : scripts.string()));
   app.require_subcommand(1);
 
   dem::cli::RunOptions run;
@@ -58,7 +64,7 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   trade_cmd->add_option("--set", trade.overrides, "override a scene value: key.path=value (repeatable)");
   trade_cmd->add_flag("--quiet", trade.quiet, "no progress lines or table");
-  trade_cmd->add_flag("!--no-plot", trade.plot, "do not call bench/plot_trade.py");
+  trade_cmd->add_flag("!--no-plot", trade.plot, "do not draw trade.png (plot_trade.py)");
 
   try {
     app.parse(argc, argv);

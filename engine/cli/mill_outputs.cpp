@@ -99,14 +99,14 @@ JsonObject MillOutputs::summary(const World& world) const {
   return j;
 }
 
-void MillOutputs::write_spectra(const World& world, const std::string& scene_file) const {
+void MillOutputs::write_spectra(const World& world) const {
   const CollisionSpectra* spectra = world.collision_spectra();
   if (!spectra) {
     if (!quiet_) std::printf("collision spectra: booked only with velocity Verlet\n");
     return;
   }
   spectra->write_csv(out_ / "spectra.csv", world.time());  // rates over the run from t = 0 (resumed too)
-  run_plot_script("dem run", "plot_spectra.py", scene_file, out_ / "spectra.csv", quiet_);
+  run_plot_script("dem run", "plot_spectra.py", out_ / "spectra.csv", quiet_);
 }
 
 }  // namespace dem::cli

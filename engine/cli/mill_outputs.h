@@ -22,7 +22,7 @@ class MillOutputs {
   /// The summary's "mill" block (speeds, revolutions, means, drive work and the energy audit).
   JsonObject summary(const World& world) const;
   /// At the end: spectra.csv of the collision energy spectra and, with Python's matplotlib, spectra.png.
-  void write_spectra(const World& world, const std::string& scene_file) const;
+  void write_spectra(const World& world) const;
   std::optional<Real> mean_power_draw() const { return monitor_.mean_power_draw(); }
 
  private:

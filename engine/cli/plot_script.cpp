@@ -4,7 +4,7 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <vector>
+#include <system_error>
 
 namespace dem::cli {
 
@@ -16,28 +16,37 @@ std::string quote(const std::string& s) {
   return q + "'";
 }
 
-std::filesystem::path find_script(const std::string& script, const std::string& scene_file) {
+}  // namespace
+
+std::filesystem::path plot_scripts_dir() {
   namespace fs = std::filesystem;
-  std::vector<fs::path> candidates{fs::path("bench") / script,
-                                   fs::absolute(scene_file).parent_path().parent_path() / "bench" / script};
-#ifdef DEM_BENCH_DIR
-  candidates.push_back(fs::path(DEM_BENCH_DIR) / script);
+  std::error_code error;
+#ifdef DEM_SHARE_FROM_BIN
+  // The installed layout: share/dem at DEM_SHARE_FROM_BIN (GNUInstallDirs' datadir/dem relative to
+  // its bindir, "../share/dem" by default) from the folder of the executable itself.
+  const fs::path exe = fs::read_symlink("/proc/self/exe", error);
+  if (!error) {
+    const fs::path share = (exe.parent_path() / DEM_SHARE_FROM_BIN).lexically_normal();
+    if (fs::is_directory(share, error)) return share / "scripts";
+  }
 #endif
-  for (const fs::path& p : candidates)
-    if (fs::exists(p)) return p;
+#ifdef DEM_BENCH_DIR
+  // A build-tree program: the plotting scripts of the source tree it was built from.
+  if (fs::is_directory(DEM_BENCH_DIR, error)) return DEM_BENCH_DIR;
+#endif
   return {};
 }
 
-}  // namespace
-
-void run_plot_script(const char* program, const std::string& script, const std::string& scene_file,
-                     const std::filesystem::path& csv, bool quiet) {
+void run_plot_script(const char* program, const std::string& script, const std::filesystem::path& csv, bool quiet) {
   namespace fs = std::filesystem;
-  const fs::path path = find_script(script, scene_file);
+  const fs::path dir = plot_scripts_dir();
+  const fs::path path = dir.empty() ? fs::path(script) : dir / script;
   const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-  const std::string how = "apt-get install python3-matplotlib, then: python3 bench/" + script + " " + csv.string();
-  if (path.empty()) {
-    std::fprintf(stderr, "%s: bench/%s not found, no plot (from the source tree: %s)\n", program, script.c_str(), how.c_str());
+  const std::string how = "apt-get install python3-matplotlib, then: python3 " + path.string() + " " + csv.string();
+  if (dir.empty() || !fs::exists(path)) {
+    std::fprintf(stderr, "%s: %s not found, no plot\n", program,
+                 dir.empty() ? ("share/dem/scripts/" + script + " (beside the program) or bench/" + script).c_str()
+                             : path.string().c_str());
     return;
   }
   const int has = std::system((python + " -c 'import matplotlib' >/dev/null 2>&1").c_str());

@@ -454,7 +454,7 @@ int run_command(const RunOptions& options) {
       .add("state_hash", hex(world.state_hash()))
       .add("provenance", provenance);
   if (mill) {
-    mill->write_spectra(world, scene.file);
+    mill->write_spectra(world);
     summary.add("mill", mill->summary(world));
     if (const auto p = mill->mean_power_draw()) summary.add("mean_power_draw", *p);
   }

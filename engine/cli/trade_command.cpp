@@ -717,7 +717,7 @@ int trade_command(const TradeOptions& options) {
   std::fflush(stdout);
   for (const std::string& w : warnings) std::fprintf(stderr, "dem trade: warning: %s\n", w.c_str());
   std::fflush(stderr);
-  if (options.plot) run_plot_script("dem trade", "plot_trade.py", options.scene, out / "trade.csv", options.quiet);
+  if (options.plot) run_plot_script("dem trade", "plot_trade.py", out / "trade.csv", options.quiet);
   say("outputs in %s\n", out.string().c_str());
   return 0;
 }
