@@ -327,6 +327,9 @@ void read_materials(TableReader& top, Scene& scene) {
     MaterialConfig m;
     m.name = r.string("name", "");
     if (m.name.empty()) r.fail("name", "every material needs a non-empty name");
+    if (!fits_csv_cell(m.name))
+      r.fail("name", "'" + m.name + "': a material name may not hold a comma, quote or line break, nor start or end "
+                     "with a space or tab (particle files name materials in a CSV column)");
     for (const auto& other : scene.world.materials)
       if (other.name == m.name) r.fail("name", "material '" + m.name + "' is defined twice");
     m.density = r.required_positive("density");
@@ -499,7 +502,9 @@ ParticleSource source_of(const toml::node& node, const std::string& file, const 
   return {file, static_cast<int>(node.source().begin.line), static_cast<int>(node.source().begin.column), field};
 }
 
-void read_particles(TableReader& top, Scene& scene, const std::string& base_dir) {
+/// Reads [[particles]], [[particle_files]] and [[generators]]; `id_cells` gets, per particle, where
+/// its id was given (a CSV cell; empty for a particle without one).
+void read_particles(TableReader& top, Scene& scene, const std::string& base_dir, std::vector<ParticleSource>& id_cells) {
   const auto explicit_list = top.tables("particles");
   for (std::size_t i = 0; i < explicit_list.size(); ++i) {
     TableReader r(*explicit_list[i], indexed("particles", i), top.file());
@@ -525,11 +530,18 @@ void read_particles(TableReader& top, Scene& scene, const std::string& base_dir)
     r.finish();
     const std::filesystem::path path = std::filesystem::path(base_dir) / name;
     if (!std::filesystem::exists(path)) r.fail("file", "file not found: " + path.string());
-    std::vector<ParticleConfig> loaded = read_particle_csv(path.string(), material);
+    ParticleCsvLayout layout;
+    std::vector<ParticleConfig> loaded = read_particle_csv(path.string(), material, &layout);
     for (std::size_t k = 0; k < loaded.size(); ++k) {
+      const int line = layout.lines[k];
+      if (layout.material_column > 0 && !known_material(scene, loaded[k].material))
+        throw InputError(path.string(), line, layout.material_column, "material",
+                         "unknown material '" + loaded[k].material + "'; defined: " + material_names(scene));
       loaded[k].position += offset;
+      id_cells.resize(scene.world.particles.size());
+      id_cells.push_back({path.string(), line, layout.id_column, "id"});
       scene.world.particles.push_back(loaded[k]);
-      scene.sources.push_back({path.string(), static_cast<int>(k + 2), 1, r.path() + " row " + std::to_string(k + 1)});
+      scene.sources.push_back({path.string(), line, 1, r.path() + " row " + std::to_string(k + 1)});
     }
   }
   const auto generators = top.tables("generators");
@@ -830,6 +842,56 @@ std::uint64_t mesh_fingerprint(const TriangleMesh& mesh) {
   return fnv1a(bytes);
 }
 
+/// When a particle file gives ids: gives every particle its id, the one its file gave, else (in
+/// scene order) the next after the largest id given; orders particles (and their sources) by id, as
+/// a World needs them (slots follow ids); rejects an id given twice. A scene without ids keeps its
+/// order and leaves ids to the World, which numbers particles 0, 1, 2, ... in that order.
+void assign_particle_ids(Scene& scene, std::vector<ParticleSource> id_cells) {
+  std::vector<ParticleConfig>& particles = scene.world.particles;
+  const std::size_t n = particles.size();
+  id_cells.resize(n);
+  std::optional<std::size_t> largest;  // the particle with the largest given id
+  for (std::size_t i = 0; i < n; ++i)
+    if (particles[i].id && (!largest || *particles[i].id > *particles[*largest].id)) largest = i;
+  if (!largest) return;
+  const auto fail_at = [&](std::size_t i, const std::string& message) {
+    const ParticleSource& c = id_cells[i];
+    throw InputError(c.file, c.line, c.column, c.field, message);
+  };
+  // A World maps every id up to the largest to a slot (4 bytes each): ids far beyond the particle
+  // count would make that map huge.
+  constexpr std::uint64_t spare_ids = std::uint64_t{1} << 26;
+  const std::uint64_t top = *particles[*largest].id;
+  if (top >= n + spare_ids)
+    fail_at(*largest, "id " + std::to_string(top) + " leaves more than " + std::to_string(spare_ids) +
+                          " ids unused below it (the engine keeps a slot for every id up to the largest): number the "
+                          "particles from 0, below " + std::to_string(n + spare_ids));
+  std::uint64_t next = top + 1;  // below n + spare_ids + n: far inside ParticleId
+  for (std::size_t i = 0; i < n; ++i)
+    if (!particles[i].id) particles[i].id = static_cast<ParticleId>(next++);
+  std::vector<std::size_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return *particles[a].id < *particles[b].id; });
+  for (std::size_t k = 1; k < n; ++k) {
+    const std::size_t a = order[k - 1], b = order[k];
+    if (*particles[a].id == *particles[b].id) {
+      const ParticleSource& other = id_cells[a];
+      fail_at(b, "id " + std::to_string(*particles[b].id) + " is also given in " + other.file + " line " +
+                     std::to_string(other.line) + ": every particle needs its own id, a whole number from 0 to " +
+                     std::to_string(std::numeric_limits<ParticleId>::max() - 1));
+    }
+  }
+  std::vector<ParticleConfig> sorted_particles(n);
+  std::vector<ParticleSource> sorted_sources(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    sorted_particles[k] = std::move(particles[order[k]]);
+    sorted_sources[k] = std::move(scene.sources[order[k]]);
+  }
+  particles = std::move(sorted_particles);
+  scene.sources = std::move(sorted_sources);
+}
+
 }  // namespace
 
 Scene load_scene_text(const std::string& text, const std::string& file, const std::string& base_dir,
@@ -855,7 +917,8 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   read_materials(top, scene);
   read_contacts(top, scene);
   read_walls(top, scene, base_dir);
-  read_particles(top, scene, base_dir);
+  std::vector<ParticleSource> id_cells;
+  read_particles(top, scene, base_dir, id_cells);
   read_mill(top, scene);
   const bool level_max_given = read_integrator(top, scene);
   read_run_and_output(top, scene);
@@ -873,6 +936,7 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   }
   if (scene.world.particles.empty())
     top.fail("particles", "the scene has no particles: add [[particles]], [[particle_files]] or [[generators]]");
+  assign_particle_ids(scene, std::move(id_cells));
   // The physics hash ignores how long the run lasts and what it writes, so a run can be resumed
   // with another end time or output interval, but never with other physics.
   toml::table physics = root;
@@ -903,6 +967,8 @@ void check_initial_state(const Scene& scene) {
     const ParticleSource& s = p < scene.sources.size() ? scene.sources[p] : ParticleSource{scene.file, 0, 0, ""};
     throw InputError(s.file, s.line, s.column, s.field, message);
   };
+  // Messages name particles by id (as outputs do); a scene made in code may leave ids to the World.
+  const auto id_of = [&](std::size_t p) -> std::uint64_t { return particles[p].id.value_or(static_cast<ParticleId>(p)); };
   std::vector<Vec3> position(particles.size());
   std::vector<Real> radius(particles.size());
   for (std::size_t p = 0; p < particles.size(); ++p) {
@@ -920,7 +986,7 @@ void check_initial_state(const Scene& scene) {
       const Real allowed = scene.max_initial_overlap * std::min(radius[a], radius[b]);
       if (overlap > allowed) {
         std::ostringstream m;
-        m << "particle " << b << " overlaps particle " << a << " by " << overlap << " m at the start; at most "
+        m << "particle " << id_of(b) << " overlaps particle " << id_of(a) << " by " << overlap << " m at the start; at most "
           << allowed << " m (scene.max_initial_overlap = " << scene.max_initial_overlap
           << " of the smaller radius) is allowed";
         fail(b, m.str());
@@ -949,10 +1015,10 @@ void check_initial_state(const Scene& scene) {
         const Vec3 axis = c.axis.normalized();
         outside = (rel - rel.dot(axis) * axis).norm() > c.radius && std::abs(rel.dot(axis)) <= 0.5 * c.length;
       }
-      if (outside) fail(p, "particle " + std::to_string(p) + " starts outside wall '" + c.name + "'");
+      if (outside) fail(p, "particle " + std::to_string(id_of(p)) + " starts outside wall '" + c.name + "'");
       if (overlap > scene.max_initial_overlap * radius[p]) {
         std::ostringstream m;
-        m << "particle " << p << " overlaps wall '" << c.name << "' by " << overlap << " m at the start; at most "
+        m << "particle " << id_of(p) << " overlaps wall '" << c.name << "' by " << overlap << " m at the start; at most "
           << scene.max_initial_overlap * radius[p] << " m (scene.max_initial_overlap of its radius) is allowed";
         fail(p, m.str());
       }
