@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <fstream>
 #include <optional>
 #include <set>
@@ -388,20 +389,40 @@ void read_contacts(TableReader& top, Scene& scene) {
     r.finish();
     scene.world.contacts.push_back(c);
   }
-  const bool has_default = std::any_of(scene.world.contacts.begin(), scene.world.contacts.end(),
-                                       [](const ContactConfig& c) { return c.material_a.empty(); });
-  if (!has_default) {
-    // Every material pair must be covered when no default is given.
-    for (const auto& a : scene.world.materials)
-      for (const auto& b : scene.world.materials) {
-        const bool covered = std::any_of(scene.world.contacts.begin(), scene.world.contacts.end(), [&](const ContactConfig& c) {
-          return (c.material_a == a.name && c.material_b == b.name) || (c.material_a == b.name && c.material_b == a.name);
-        });
-        if (!covered)
-          top.fail("contacts", "no contact parameters for materials '" + a.name + "' and '" + b.name +
-                                   "': add a [[contacts]] entry for them or one without `materials` as the default");
-      }
-  }
+}
+
+/// Every pair of materials that can meet needs contact parameters, from an entry naming the pair or
+/// the default entry: two particle materials (a material with itself included), or a particle
+/// material and a wall material. Walls never touch walls, so a pair of wall materials (or of
+/// materials nothing uses) needs no entry. Called once particles and walls are read.
+void check_contact_pairs(TableReader& top, const Scene& scene) {
+  const auto& contacts = scene.world.contacts;
+  if (std::any_of(contacts.begin(), contacts.end(), [](const ContactConfig& c) { return c.material_a.empty(); })) return;
+  const auto& materials = scene.world.materials;
+  std::map<std::string, std::size_t> index;
+  for (std::size_t i = 0; i < materials.size(); ++i) index[materials[i].name] = i;
+  std::vector<bool> particle(materials.size()), wall(materials.size());  // used by particles, by walls
+  for (const ParticleConfig& p : scene.world.particles) particle[index.at(p.material)] = true;
+  for (const WallConfig& w : scene.world.walls) wall[index.at(w.material)] = true;
+  for (std::size_t i = 0; i < materials.size(); ++i)
+    for (std::size_t j = i; j < materials.size(); ++j) {
+      const std::string &a = materials[i].name, &b = materials[j].name;
+      std::string meet;
+      if (particle[i] && particle[j])
+        meet = i == j ? "particles of '" + a + "' touch each other" : "particles of '" + a + "' touch particles of '" + b + "'";
+      else if (particle[i] && wall[j])
+        meet = "particles of '" + a + "' touch walls of '" + b + "'";
+      else if (particle[j] && wall[i])
+        meet = "particles of '" + b + "' touch walls of '" + a + "'";
+      if (meet.empty()) continue;
+      const bool covered = std::any_of(contacts.begin(), contacts.end(), [&](const ContactConfig& c) {
+        return (c.material_a == a && c.material_b == b) || (c.material_a == b && c.material_b == a);
+      });
+      if (!covered)
+        top.fail("contacts", "no contact parameters for materials '" + a + "' and '" + b + "' (" + meet +
+                                 "): add a [[contacts]] entry with materials = [\"" + a + "\", \"" + b +
+                                 "\"] and at least normal_stiffness, or one without `materials` as the default");
+    }
 }
 
 void read_walls(TableReader& top, Scene& scene, const std::string& base_dir) {
@@ -920,6 +941,7 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   std::vector<ParticleSource> id_cells;
   read_particles(top, scene, base_dir, id_cells);
   read_mill(top, scene);
+  check_contact_pairs(top, scene);
   const bool level_max_given = read_integrator(top, scene);
   read_run_and_output(top, scene);
   read_accuracy(top, scene);
