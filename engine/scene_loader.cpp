@@ -46,11 +46,98 @@ std::string join(const std::vector<std::string>& items) {
   return s;
 }
 
+// Every key a scene may hold (scene_keys()), with its unit as scenes/README.md writes it ("–" a
+// dimensionless number, "" no unit). The readers below ask only for these; scenes/README.md
+// documents each with the same unit (tests/scene_loader_test.cpp holds the three together), and
+// messages about a value name its unit.
+const std::vector<SceneKey> schema = {
+    // top level
+    {"scene", ""}, {"materials", ""}, {"contacts", ""}, {"walls", ""}, {"particles", ""}, {"particle_files", ""},
+    {"generators", ""}, {"mill", ""}, {"integrator", ""}, {"run", ""}, {"output", ""}, {"broadphase", ""},
+    {"accuracy", ""},
+    // [scene]
+    {"scene.name", ""}, {"scene.dimension", ""}, {"scene.thickness", "m"}, {"scene.gravity", "m/s²"},
+    {"scene.separation", ""}, {"scene.rolling_mode", ""}, {"scene.max_initial_overlap", "–"},
+    // [[materials]]
+    {"materials.name", ""}, {"materials.density", "kg/m³"},
+    // [[contacts]]
+    {"contacts.materials", ""}, {"contacts.normal_stiffness", "N/m"}, {"contacts.normal_damping", ""},
+    {"contacts.tangential_stiffness", "N/m"}, {"contacts.tangential_damping", ""},
+    {"contacts.sliding_friction", "–"}, {"contacts.static_friction", "–"}, {"contacts.rolling_friction", "–"},
+    {"contacts.rolling_static_friction", "–"}, {"contacts.rolling_stiffness", "N m/rad"},
+    {"contacts.normal_damping.restitution", "–"}, {"contacts.normal_damping.damping_ratio", "–"},
+    {"contacts.normal_damping.coefficient", "N s/m"}, {"contacts.normal_damping.tsuji_alpha", "–"},
+    {"contacts.normal_damping.gamma", "1/s"}, {"contacts.tangential_damping.damping_ratio", "–"},
+    {"contacts.tangential_damping.coefficient", "N s/m"}, {"contacts.tangential_damping.tsuji_alpha", "–"},
+    {"contacts.tangential_damping.gamma", "1/s"},
+    // [[walls]]
+    {"walls.name", ""}, {"walls.type", ""}, {"walls.material", ""}, {"walls.point", "m"}, {"walls.normal", "–"},
+    {"walls.half_extents", "m"}, {"walls.inside", ""}, {"walls.axis", "–"}, {"walls.radius", "m"},
+    {"walls.length", "m"}, {"walls.profile", "m"}, {"walls.file", ""}, {"walls.scale", "m per file unit"},
+    {"walls.velocity", "m/s"}, {"walls.angular_velocity", "rad/s"}, {"walls.rotation_center", "m"},
+    {"walls.ramp_time", "s"},
+    // [[particles]], [[particle_files]], [[generators]]
+    {"particles.position", "m"}, {"particles.velocity", "m/s"}, {"particles.angular_velocity", "rad/s"},
+    {"particles.radius", "m"}, {"particles.mass", "kg"}, {"particles.density", "kg/m³"}, {"particles.material", ""},
+    {"particle_files.file", ""}, {"particle_files.material", ""}, {"particle_files.offset", "m"},
+    {"generators.count", ""}, {"generators.seed", ""}, {"generators.material", ""}, {"generators.velocity", "m/s"},
+    {"generators.max_attempts", ""}, {"generators.region", ""}, {"generators.size", ""},
+    {"generators.region.type", ""}, {"generators.region.min", "m"}, {"generators.region.max", "m"},
+    {"generators.region.center", "m"}, {"generators.region.axis", "–"}, {"generators.region.radius", "m"},
+    {"generators.region.length", "m"}, {"generators.size.distribution", ""}, {"generators.size.radius", "m"},
+    {"generators.size.min", "m"}, {"generators.size.max", "m"}, {"generators.size.mean", "m"},
+    {"generators.size.std", "m"}, {"generators.size.median", "m"}, {"generators.size.sigma", "–"},
+    // [mill]
+    {"mill.diameter", "m"}, {"mill.length", "m"}, {"mill.lifters", ""}, {"mill.lifter_height", "m"},
+    {"mill.lifter_width", "m"}, {"mill.lifter_face_angle", "degrees"}, {"mill.rpm", "rpm"},
+    {"mill.critical_fraction", "–"}, {"mill.direction", ""}, {"mill.ramp_time", "s"},
+    {"mill.discard_revolutions", ""}, {"mill.material", ""}, {"mill.charge", ""}, {"mill.charge.count", ""},
+    {"mill.charge.filling", "–"}, {"mill.charge.solids_fraction", "–"}, {"mill.charge.size", ""},
+    {"mill.charge.material", ""}, {"mill.charge.seed", ""}, {"mill.charge.max_attempts", ""},
+    {"mill.charge.size.distribution", ""}, {"mill.charge.size.radius", "m"}, {"mill.charge.size.min", "m"},
+    {"mill.charge.size.max", "m"}, {"mill.charge.size.mean", "m"}, {"mill.charge.size.std", "m"},
+    {"mill.charge.size.median", "m"}, {"mill.charge.size.sigma", "–"},
+    // [integrator]
+    {"integrator.method", ""}, {"integrator.control", ""}, {"integrator.dt", "s"}, {"integrator.dt_base", "s"},
+    {"integrator.tolerance", "–"}, {"integrator.level_min", ""}, {"integrator.level_max", ""},
+    {"integrator.safety", "–"}, {"integrator.velocity_weight", "–"}, {"integrator.dx_min", "–"},
+    {"integrator.richardson", ""}, {"integrator.error_per_unit_step", ""}, {"integrator.predicted_dashpot", ""},
+    // [run], [output], [broadphase], [accuracy]
+    {"run.until", "s"}, {"run.threads", ""}, {"run.stop_kinetic_energy", "J"}, {"run.stop_check_after", "s"},
+    {"output.interval", "s"}, {"output.snapshot_interval", "s"}, {"output.settled_file", ""},
+    {"output.trajectories", ""}, {"broadphase.skin", "m"}, {"broadphase.kind", ""}, {"broadphase.wall_lists", ""},
+    {"accuracy.metrics", ""}};
+
+const SceneKey* find_key(const std::string& path) {
+  for (const SceneKey& k : schema)
+    if (k.path == path) return &k;
+  return nullptr;
+}
+
+// The recorder of this thread, if any (SceneKeyRecorder).
+thread_local std::set<std::string>* key_recorder = nullptr;
+
+/// A table's path without array indices: "contacts[2].normal_damping" -> "contacts.normal_damping".
+std::string schema_path(const std::string& path) {
+  std::string out;
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    if (path[i] == '[') {
+      i = path.find(']', i);
+      if (i == std::string::npos) break;
+      continue;
+    }
+    out += path[i];
+  }
+  return out;
+}
+
+std::string with_unit(const std::string& unit) { return unit.empty() || unit == "–" ? "" : " (" + unit + ")"; }
+
 /// Reads one TOML table: typed getters with defaults and checks, and unknown-key detection.
 class TableReader {
  public:
   TableReader(const toml::table& table, std::string path, const std::string& file)
-      : table_(table), path_(std::move(path)), file_(file) {}
+      : table_(table), path_(std::move(path)), file_(file), schema_path_(schema_path(path_)) {}
 
   std::string field(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
 
@@ -86,12 +173,12 @@ class TableReader {
   }
 
   bool has(const std::string& key) {
-    used_.insert(key);
+    use(key);
     return table_.contains(key);
   }
 
   std::optional<Real> optional_real(const std::string& key) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return std::nullopt;
     if (auto v = node->value_exact<double>()) return *v;
@@ -103,23 +190,23 @@ class TableReader {
 
   Real positive(const std::string& key, Real fallback) {
     const Real v = real(key, fallback);
-    if (!(v > 0) || !std::isfinite(v)) fail(key, "must be a finite number > 0, got " + number(v));
+    if (!(v > 0) || !std::isfinite(v)) fail(key, "must be a finite number > 0" + unit(key) + ", got " + number(v));
     return v;
   }
 
   Real non_negative(const std::string& key, Real fallback) {
     const Real v = real(key, fallback);
-    if (!(v >= 0) || !std::isfinite(v)) fail(key, "must be a finite number >= 0, got " + number(v));
+    if (!(v >= 0) || !std::isfinite(v)) fail(key, "must be a finite number >= 0" + unit(key) + ", got " + number(v));
     return v;
   }
 
   Real required_positive(const std::string& key) {
-    if (!table_.contains(key)) fail(key, "is required (a finite number > 0)");
+    if (!table_.contains(key)) fail(key, "is required: a finite number > 0" + unit(key));
     return positive(key, 0);
   }
 
   int integer(const std::string& key, int fallback) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return fallback;
     if (auto v = node->value_exact<int64_t>()) {
@@ -132,7 +219,7 @@ class TableReader {
 
   /// A non-negative 64-bit integer (seeds).
   std::uint64_t unsigned_integer(const std::string& key, std::uint64_t fallback) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return fallback;
     if (auto v = node->value_exact<int64_t>(); v && *v >= 0) return static_cast<std::uint64_t>(*v);
@@ -140,7 +227,7 @@ class TableReader {
   }
 
   bool boolean(const std::string& key, bool fallback) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return fallback;
     if (auto v = node->value_exact<bool>()) return *v;
@@ -148,7 +235,7 @@ class TableReader {
   }
 
   std::string string(const std::string& key, const std::string& fallback) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return fallback;
     if (auto v = node->value_exact<std::string>()) return *v;
@@ -158,7 +245,7 @@ class TableReader {
   /// A string that must be one of `choices`; returns its index.
   std::size_t choice(const std::string& key, const std::vector<std::string>& choices, std::size_t fallback) {
     if (!table_.contains(key)) {
-      used_.insert(key);
+      use(key);
       return fallback;
     }
     const std::string v = string(key, "");
@@ -168,17 +255,17 @@ class TableReader {
   }
 
   Vec3 vec3(const std::string& key, const Vec3& fallback) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return fallback;
     const toml::array* a = node->as_array();
-    if (!a || a->size() != 3) fail(key, "expected an array of 3 numbers [x, y, z]");
+    if (!a || a->size() != 3) fail(key, "expected an array of 3 numbers [x, y, z]" + unit(key));
     Vec3 v;
     for (std::size_t i = 0; i < 3; ++i) {
       const toml::node& e = *a->get(i);
       if (auto d = e.value_exact<double>()) v[static_cast<int>(i)] = *d;
       else if (auto n = e.value_exact<int64_t>()) v[static_cast<int>(i)] = static_cast<Real>(*n);
-      else fail_at(e.source().begin.line == 0 ? &e : node, key, "expected an array of 3 numbers [x, y, z]");
+      else fail_at(e.source().begin.line == 0 ? &e : node, key, "expected an array of 3 numbers [x, y, z]" + unit(key));
     }
     if (!v.allFinite()) fail(key, "components must be finite");
     return v;
@@ -186,7 +273,7 @@ class TableReader {
 
   /// An array of points [[x, y, z], ...].
   std::vector<Vec3> vec3_list(const std::string& key) {
-    used_.insert(key);
+    use(key);
     std::vector<Vec3> out;
     const toml::node* node = table_.get(key);
     if (!node) return out;
@@ -209,7 +296,7 @@ class TableReader {
   }
 
   const toml::table* table(const std::string& key) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return nullptr;
     if (const toml::table* t = node->as_table()) return t;
@@ -218,7 +305,7 @@ class TableReader {
 
   /// An array of tables ([[key]] in TOML).
   std::vector<const toml::table*> tables(const std::string& key) {
-    used_.insert(key);
+    use(key);
     std::vector<const toml::table*> out;
     const toml::node* node = table_.get(key);
     if (!node) return out;
@@ -232,7 +319,7 @@ class TableReader {
   }
 
   const toml::node* node(const std::string& key) {
-    used_.insert(key);
+    use(key);
     return table_.get(key);
   }
 
@@ -260,6 +347,7 @@ class TableReader {
 
   const std::string& file() const { return file_; }
   const toml::table& raw() const { return table_; }
+  bool contains(const std::string& key) const { return table_.contains(key); }
   int line() const { return static_cast<int>(table_.source().begin.line); }
   int column() const { return static_cast<int>(table_.source().begin.column); }
   const std::string& path() const { return path_; }
@@ -271,9 +359,24 @@ class TableReader {
   }
 
  private:
+  /// Marks `key` as known here (finish() accepts it). A key outside the schema is a bug of the
+  /// loader, not of the scene: std::logic_error (tests and the fuzzer report it).
+  const SceneKey& use(const std::string& key) {
+    const std::string full = schema_path_.empty() ? key : schema_path_ + "." + key;
+    const SceneKey* known = find_key(full);
+    if (!known) throw std::logic_error("scene loader reads '" + full + "', which is not in its schema (scene_loader.cpp)");
+    if (key_recorder) key_recorder->insert(full);
+    used_.insert(key);
+    return *known;
+  }
+
+  /// " (unit)" for a key with a physical unit, else nothing: for messages about its value.
+  std::string unit(const std::string& key) { return with_unit(use(key).unit); }
+
   const toml::table& table_;
   std::string path_;
   const std::string& file_;
+  std::string schema_path_;
   std::set<std::string> used_;
 };
 
@@ -289,13 +392,17 @@ Damping read_damping(TableReader& r, const std::string& key, bool allow_restitut
       {"gamma", DampingKind::gamma}};
   Damping out;
   int given = 0;
+  // Restitution is no key of a tangential damping: rejected with its reason, not as unknown.
+  if (!allow_restitution && d.contains("restitution"))
+    d.fail("restitution", "restitution is only defined for the normal damping; here give damping_ratio, coefficient "
+                          "[N s/m], tsuji_alpha or gamma [1/s]");
   for (const auto& [name, kind] : kinds) {
+    if (kind == DampingKind::restitution && !allow_restitution) continue;
     if (!d.has(name)) continue;
     ++given;
     out.kind = kind;
     out.value = d.non_negative(name, 0);
     if (kind == DampingKind::restitution) {
-      if (!allow_restitution) d.fail(name, "restitution is only defined for the normal damping");
       if (!(out.value > 0 && out.value <= 1)) d.fail(name, "restitution must be in (0, 1], got " + TableReader::number(out.value));
     }
   }
@@ -914,6 +1021,11 @@ void assign_particle_ids(Scene& scene, std::vector<ParticleSource> id_cells) {
 }
 
 }  // namespace
+
+const std::vector<SceneKey>& scene_keys() { return schema; }
+
+SceneKeyRecorder::SceneKeyRecorder() : previous_(key_recorder) { key_recorder = &keys_; }
+SceneKeyRecorder::~SceneKeyRecorder() { key_recorder = previous_; }
 
 Scene load_scene_text(const std::string& text, const std::string& file, const std::string& base_dir,
                       const std::vector<std::string>& overrides) {
