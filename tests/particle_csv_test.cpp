@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <stdexcept>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -257,6 +258,34 @@ dt = 1e-4
   EXPECT_EQ(b.velocity, a.velocity);
   EXPECT_EQ(b.angular_velocity, a.angular_velocity);
   EXPECT_NE(a.position[0], Vec3(0, 0, 0.3)) << "the first world moved";
+}
+
+// A fed particle may bring its id (from a file, say): it must be above every id given so far, since
+// ids are never reused and slots follow them; without one it gets the next.
+TEST_F(ParticleCsv, AddParticleTakesAGivenIdAboveTheOthers) {
+  write("a.csv", "id,x,y,z,radius\n5,0,0,0,0.1\n9,1,0,0,0.1\n");
+  const Scene scene = load_scene_text("[[contacts]]\nnormal_stiffness = 1e5\n[[particle_files]]\nfile = \"a.csv\"\n"
+                                      "[integrator]\ndt = 1e-4\n",
+                                      "feed.toml", dir_.string());
+  World world(scene.world);
+  ParticleConfig p;
+  p.radius = 0.1;
+  p.position = Vec3(2, 0, 0);
+  p.id = 9;
+  EXPECT_THROW(world.add_particle(p), std::invalid_argument) << "9 is taken";
+  p.id = 7;
+  EXPECT_THROW(world.add_particle(p), std::invalid_argument) << "7 is below a given id";
+  EXPECT_EQ(world.particle_count(), 2u);
+  p.id = 20;
+  EXPECT_EQ(world.add_particle(p), 20u);
+  p.id.reset();
+  p.position = Vec3(3, 0, 0);
+  EXPECT_EQ(world.add_particle(p), 21u);
+  EXPECT_EQ(world.state().id, (std::vector<ParticleId>{5, 9, 20, 21}));
+  const std::vector<ParticleConfig> now = world.particles();
+  ASSERT_EQ(now.size(), 4u);
+  EXPECT_EQ(now[3].position, Vec3(3, 0, 0));
+  EXPECT_EQ(now[3].density, 2500.0) << "the default material's";
 }
 
 }  // namespace
