@@ -58,7 +58,8 @@ std::vector<ParticleConfig> read_particle_csv(const std::string& path, const std
     if (!ok) throw InputError(path, 1, static_cast<int>(c + 1), header[c], "unknown column; valid: " + valid_columns);
     if (column.count(header[c]))
       throw InputError(path, 1, static_cast<int>(c + 1), header[c],
-                       "column given twice (also column " + std::to_string(column[header[c]] + 1) + "); give each once");
+                       "column given twice (also column " + std::to_string(column[header[c]] + 1) +
+                           "); give each once");
     column[header[c]] = static_cast<int>(c);
   }
   for (const char* required : {"x", "y", "z", "radius"})
@@ -105,7 +106,8 @@ std::vector<ParticleConfig> read_particle_csv(const std::string& path, const std
     if (density && !(*density > 0))
       fail("density", "must be > 0 (kg/m³), or the cell left empty for the material's density");
     if (mass && !(*mass > 0)) fail("mass", "must be > 0 (kg), or the cell left empty");
-    if (density && mass) fail("mass", "give the mass (kg) or the density (kg/m³) of a particle, not both: empty one cell");
+    if (density && mass)
+      fail("mass", "give the mass (kg) or the density (kg/m³) of a particle, not both: empty one cell");
     p.density = density.value_or(0);
     p.mass = mass.value_or(0);
     if (column.count("id")) {

@@ -364,7 +364,8 @@ class TableReader {
   const SceneKey& use(const std::string& key) {
     const std::string full = schema_path_.empty() ? key : schema_path_ + "." + key;
     const SceneKey* known = find_key(full);
-    if (!known) throw std::logic_error("scene loader reads '" + full + "', which is not in its schema (scene_loader.cpp)");
+    if (!known)
+      throw std::logic_error("scene loader reads '" + full + "', which is not in its schema (scene_loader.cpp)");
     if (key_recorder) key_recorder->insert(full);
     used_.insert(key);
     return *known;
@@ -504,7 +505,8 @@ void read_contacts(TableReader& top, Scene& scene) {
 /// materials nothing uses) needs no entry. Called once particles and walls are read.
 void check_contact_pairs(TableReader& top, const Scene& scene) {
   const auto& contacts = scene.world.contacts;
-  if (std::any_of(contacts.begin(), contacts.end(), [](const ContactConfig& c) { return c.material_a.empty(); })) return;
+  const auto is_default = [](const ContactConfig& c) { return c.material_a.empty(); };
+  if (std::any_of(contacts.begin(), contacts.end(), is_default)) return;
   const auto& materials = scene.world.materials;
   std::map<std::string, std::size_t> index;
   for (std::size_t i = 0; i < materials.size(); ++i) index[materials[i].name] = i;
@@ -516,7 +518,8 @@ void check_contact_pairs(TableReader& top, const Scene& scene) {
       const std::string &a = materials[i].name, &b = materials[j].name;
       std::string meet;
       if (particle[i] && particle[j])
-        meet = i == j ? "particles of '" + a + "' touch each other" : "particles of '" + a + "' touch particles of '" + b + "'";
+        meet = i == j ? "particles of '" + a + "' touch each other"
+                      : "particles of '" + a + "' touch particles of '" + b + "'";
       else if (particle[i] && wall[j])
         meet = "particles of '" + a + "' touch walls of '" + b + "'";
       else if (particle[j] && wall[i])
@@ -632,7 +635,8 @@ ParticleSource source_of(const toml::node& node, const std::string& file, const 
 
 /// Reads [[particles]], [[particle_files]] and [[generators]]; `id_cells` gets, per particle, where
 /// its id was given (a CSV cell; empty for a particle without one).
-void read_particles(TableReader& top, Scene& scene, const std::string& base_dir, std::vector<ParticleSource>& id_cells) {
+void read_particles(TableReader& top, Scene& scene, const std::string& base_dir,
+                    std::vector<ParticleSource>& id_cells) {
   const auto explicit_list = top.tables("particles");
   for (std::size_t i = 0; i < explicit_list.size(); ++i) {
     TableReader r(*explicit_list[i], indexed("particles", i), top.file());
@@ -1102,7 +1106,9 @@ void check_initial_state(const Scene& scene) {
     throw InputError(s.file, s.line, s.column, s.field, message);
   };
   // Messages name particles by id (as outputs do); a scene made in code may leave ids to the World.
-  const auto id_of = [&](std::size_t p) -> std::uint64_t { return particles[p].id.value_or(static_cast<ParticleId>(p)); };
+  const auto id_of = [&](std::size_t p) -> std::uint64_t {
+    return particles[p].id.value_or(static_cast<ParticleId>(p));
+  };
   std::vector<Vec3> position(particles.size());
   std::vector<Real> radius(particles.size());
   for (std::size_t p = 0; p < particles.size(); ++p) {
@@ -1120,8 +1126,8 @@ void check_initial_state(const Scene& scene) {
       const Real allowed = scene.max_initial_overlap * std::min(radius[a], radius[b]);
       if (overlap > allowed) {
         std::ostringstream m;
-        m << "particle " << id_of(b) << " overlaps particle " << id_of(a) << " by " << overlap << " m at the start; at most "
-          << allowed << " m (scene.max_initial_overlap = " << scene.max_initial_overlap
+        m << "particle " << id_of(b) << " overlaps particle " << id_of(a) << " by " << overlap
+          << " m at the start; at most " << allowed << " m (scene.max_initial_overlap = " << scene.max_initial_overlap
           << " of the smaller radius) is allowed";
         fail(b, m.str());
       }
@@ -1152,8 +1158,9 @@ void check_initial_state(const Scene& scene) {
       if (outside) fail(p, "particle " + std::to_string(id_of(p)) + " starts outside wall '" + c.name + "'");
       if (overlap > scene.max_initial_overlap * radius[p]) {
         std::ostringstream m;
-        m << "particle " << id_of(p) << " overlaps wall '" << c.name << "' by " << overlap << " m at the start; at most "
-          << scene.max_initial_overlap * radius[p] << " m (scene.max_initial_overlap of its radius) is allowed";
+        m << "particle " << id_of(p) << " overlaps wall '" << c.name << "' by " << overlap
+          << " m at the start; at most " << scene.max_initial_overlap * radius[p]
+          << " m (scene.max_initial_overlap of its radius) is allowed";
         fail(p, m.str());
       }
     }

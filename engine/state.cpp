@@ -13,7 +13,8 @@ ParticleIndex State::add(const Vec3& x, const Vec3& v, const Vec3& w, Real r, Re
 ParticleIndex State::add(ParticleId given_id, const Vec3& x, const Vec3& v, const Vec3& w, Real r, Real inv_m,
                          Real inv_i, std::uint16_t mat) {
   if (given_id < next_id() || given_id == std::numeric_limits<ParticleId>::max())
-    throw std::invalid_argument("particle id " + std::to_string(given_id) + " is taken or out of order: ids must increase (the next is at least " +
+    throw std::invalid_argument("particle id " + std::to_string(given_id) +
+                                " is taken or out of order: ids must increase (the next is at least " +
                                 std::to_string(next_id()) + ") and stay below " +
                                 std::to_string(std::numeric_limits<ParticleId>::max()));
   const auto slot = static_cast<ParticleIndex>(size());

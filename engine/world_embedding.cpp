@@ -161,7 +161,8 @@ ParticleId World::add_particle(const ParticleConfig& p) {
   if (!is_free(x, p.radius))
     throw std::invalid_argument("add_particle: the particle would overlap a particle or a wall (see World::is_free)");
   if (p.id && *p.id < state_.next_id())
-    throw std::invalid_argument("add_particle: id " + std::to_string(*p.id) + " is taken or below a given id (ids are never reused): give " +
+    throw std::invalid_argument("add_particle: id " + std::to_string(*p.id) +
+                                " is taken or below a given id (ids are never reused): give " +
                                 std::to_string(state_.next_id()) + " or more, or no id");
   const ParticleIndex slot = state_.add(p.id.value_or(state_.next_id()), x, v, w, p.radius, inv_mass, inv_inertia,
                                         static_cast<std::uint16_t>(mat));

@@ -181,7 +181,8 @@ TEST(CliSettle, RestartFromASettledFileHasTheIdsMassesAndStateOfTheRunThatWroteI
 
   // The program restarted from it keeps ids, radii, masses, densities and materials once more.
   ASSERT_EQ(run_dem("run " + restart_scene.string() + " --out " + (tmp.path() / "second").string()), 0);
-  const std::vector<dem::ParticleConfig> later = dem::read_particle_csv((tmp.path() / "second" / "settled.csv").string());
+  const std::vector<dem::ParticleConfig> later =
+      dem::read_particle_csv((tmp.path() / "second" / "settled.csv").string());
   ASSERT_EQ(later.size(), rows.size());
   for (std::size_t k = 0; k < rows.size(); ++k) {
     EXPECT_EQ(later[k].id, rows[k].id);
