@@ -55,6 +55,7 @@ inline WorldConfig scaled_config(Workload workload, std::size_t n, int threads) 
   for (std::size_t by = 0; by < ny; ++by)
     for (std::size_t bx = 0; bx < nx; ++bx)
       for (ParticleConfig p : block.particles) {
+        p.id.reset();  // copies and subsets are numbered afresh, in the order kept below
         p.position += Vec3(static_cast<Real>(bx) * extent.x(), static_cast<Real>(by) * extent.y(), 0);
         tiled.push_back(p);
       }

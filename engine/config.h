@@ -4,6 +4,7 @@
 // into run-time tables once, at set-up.
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -105,6 +106,10 @@ struct WallConfig {
 };
 
 struct ParticleConfig {
+  // Stable id (what outputs and contact keys use). Nothing: the next id after the largest given so
+  // far. A World takes particles in config order and slots follow ids, so given ids must increase
+  // along WorldConfig::particles (the scene loader sorts them).
+  std::optional<ParticleId> id;
   Vec3 position = Vec3::Zero();          // [m]
   Vec3 velocity = Vec3::Zero();          // [m/s]
   Vec3 angular_velocity = Vec3::Zero();  // [rad/s]

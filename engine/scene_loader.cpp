@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <fstream>
 #include <optional>
 #include <set>
@@ -45,11 +46,98 @@ std::string join(const std::vector<std::string>& items) {
   return s;
 }
 
+// Every key a scene may hold (scene_keys()), with its unit as scenes/README.md writes it ("–" a
+// dimensionless number, "" no unit). The readers below ask only for these; scenes/README.md
+// documents each with the same unit (tests/scene_loader_test.cpp holds the three together), and
+// messages about a value name its unit.
+const std::vector<SceneKey> schema = {
+    // top level
+    {"scene", ""}, {"materials", ""}, {"contacts", ""}, {"walls", ""}, {"particles", ""}, {"particle_files", ""},
+    {"generators", ""}, {"mill", ""}, {"integrator", ""}, {"run", ""}, {"output", ""}, {"broadphase", ""},
+    {"accuracy", ""},
+    // [scene]
+    {"scene.name", ""}, {"scene.dimension", ""}, {"scene.thickness", "m"}, {"scene.gravity", "m/s²"},
+    {"scene.separation", ""}, {"scene.rolling_mode", ""}, {"scene.max_initial_overlap", "–"},
+    // [[materials]]
+    {"materials.name", ""}, {"materials.density", "kg/m³"},
+    // [[contacts]]
+    {"contacts.materials", ""}, {"contacts.normal_stiffness", "N/m"}, {"contacts.normal_damping", ""},
+    {"contacts.tangential_stiffness", "N/m"}, {"contacts.tangential_damping", ""},
+    {"contacts.sliding_friction", "–"}, {"contacts.static_friction", "–"}, {"contacts.rolling_friction", "–"},
+    {"contacts.rolling_static_friction", "–"}, {"contacts.rolling_stiffness", "N m/rad"},
+    {"contacts.normal_damping.restitution", "–"}, {"contacts.normal_damping.damping_ratio", "–"},
+    {"contacts.normal_damping.coefficient", "N s/m"}, {"contacts.normal_damping.tsuji_alpha", "–"},
+    {"contacts.normal_damping.gamma", "1/s"}, {"contacts.tangential_damping.damping_ratio", "–"},
+    {"contacts.tangential_damping.coefficient", "N s/m"}, {"contacts.tangential_damping.tsuji_alpha", "–"},
+    {"contacts.tangential_damping.gamma", "1/s"},
+    // [[walls]]
+    {"walls.name", ""}, {"walls.type", ""}, {"walls.material", ""}, {"walls.point", "m"}, {"walls.normal", "–"},
+    {"walls.half_extents", "m"}, {"walls.inside", ""}, {"walls.axis", "–"}, {"walls.radius", "m"},
+    {"walls.length", "m"}, {"walls.profile", "m"}, {"walls.file", ""}, {"walls.scale", "m per file unit"},
+    {"walls.velocity", "m/s"}, {"walls.angular_velocity", "rad/s"}, {"walls.rotation_center", "m"},
+    {"walls.ramp_time", "s"},
+    // [[particles]], [[particle_files]], [[generators]]
+    {"particles.position", "m"}, {"particles.velocity", "m/s"}, {"particles.angular_velocity", "rad/s"},
+    {"particles.radius", "m"}, {"particles.mass", "kg"}, {"particles.density", "kg/m³"}, {"particles.material", ""},
+    {"particle_files.file", ""}, {"particle_files.material", ""}, {"particle_files.offset", "m"},
+    {"generators.count", ""}, {"generators.seed", ""}, {"generators.material", ""}, {"generators.velocity", "m/s"},
+    {"generators.max_attempts", ""}, {"generators.region", ""}, {"generators.size", ""},
+    {"generators.region.type", ""}, {"generators.region.min", "m"}, {"generators.region.max", "m"},
+    {"generators.region.center", "m"}, {"generators.region.axis", "–"}, {"generators.region.radius", "m"},
+    {"generators.region.length", "m"}, {"generators.size.distribution", ""}, {"generators.size.radius", "m"},
+    {"generators.size.min", "m"}, {"generators.size.max", "m"}, {"generators.size.mean", "m"},
+    {"generators.size.std", "m"}, {"generators.size.median", "m"}, {"generators.size.sigma", "–"},
+    // [mill]
+    {"mill.diameter", "m"}, {"mill.length", "m"}, {"mill.lifters", ""}, {"mill.lifter_height", "m"},
+    {"mill.lifter_width", "m"}, {"mill.lifter_face_angle", "degrees"}, {"mill.rpm", "rpm"},
+    {"mill.critical_fraction", "–"}, {"mill.direction", ""}, {"mill.ramp_time", "s"},
+    {"mill.discard_revolutions", ""}, {"mill.material", ""}, {"mill.charge", ""}, {"mill.charge.count", ""},
+    {"mill.charge.filling", "–"}, {"mill.charge.solids_fraction", "–"}, {"mill.charge.size", ""},
+    {"mill.charge.material", ""}, {"mill.charge.seed", ""}, {"mill.charge.max_attempts", ""},
+    {"mill.charge.size.distribution", ""}, {"mill.charge.size.radius", "m"}, {"mill.charge.size.min", "m"},
+    {"mill.charge.size.max", "m"}, {"mill.charge.size.mean", "m"}, {"mill.charge.size.std", "m"},
+    {"mill.charge.size.median", "m"}, {"mill.charge.size.sigma", "–"},
+    // [integrator]
+    {"integrator.method", ""}, {"integrator.control", ""}, {"integrator.dt", "s"}, {"integrator.dt_base", "s"},
+    {"integrator.tolerance", "–"}, {"integrator.level_min", ""}, {"integrator.level_max", ""},
+    {"integrator.safety", "–"}, {"integrator.velocity_weight", "–"}, {"integrator.dx_min", "–"},
+    {"integrator.richardson", ""}, {"integrator.error_per_unit_step", ""}, {"integrator.predicted_dashpot", ""},
+    // [run], [output], [broadphase], [accuracy]
+    {"run.until", "s"}, {"run.threads", ""}, {"run.stop_kinetic_energy", "J"}, {"run.stop_check_after", "s"},
+    {"output.interval", "s"}, {"output.snapshot_interval", "s"}, {"output.settled_file", ""},
+    {"output.trajectories", ""}, {"broadphase.skin", "m"}, {"broadphase.kind", ""}, {"broadphase.wall_lists", ""},
+    {"accuracy.metrics", ""}};
+
+const SceneKey* find_key(const std::string& path) {
+  for (const SceneKey& k : schema)
+    if (k.path == path) return &k;
+  return nullptr;
+}
+
+// The recorder of this thread, if any (SceneKeyRecorder).
+thread_local std::set<std::string>* key_recorder = nullptr;
+
+/// A table's path without array indices: "contacts[2].normal_damping" -> "contacts.normal_damping".
+std::string schema_path(const std::string& path) {
+  std::string out;
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    if (path[i] == '[') {
+      i = path.find(']', i);
+      if (i == std::string::npos) break;
+      continue;
+    }
+    out += path[i];
+  }
+  return out;
+}
+
+std::string with_unit(const std::string& unit) { return unit.empty() || unit == "–" ? "" : " (" + unit + ")"; }
+
 /// Reads one TOML table: typed getters with defaults and checks, and unknown-key detection.
 class TableReader {
  public:
   TableReader(const toml::table& table, std::string path, const std::string& file)
-      : table_(table), path_(std::move(path)), file_(file) {}
+      : table_(table), path_(std::move(path)), file_(file), schema_path_(schema_path(path_)) {}
 
   std::string field(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
 
@@ -85,12 +173,12 @@ class TableReader {
   }
 
   bool has(const std::string& key) {
-    used_.insert(key);
+    use(key);
     return table_.contains(key);
   }
 
   std::optional<Real> optional_real(const std::string& key) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return std::nullopt;
     if (auto v = node->value_exact<double>()) return *v;
@@ -102,23 +190,23 @@ class TableReader {
 
   Real positive(const std::string& key, Real fallback) {
     const Real v = real(key, fallback);
-    if (!(v > 0) || !std::isfinite(v)) fail(key, "must be a finite number > 0, got " + number(v));
+    if (!(v > 0) || !std::isfinite(v)) fail(key, "must be a finite number > 0" + unit(key) + ", got " + number(v));
     return v;
   }
 
   Real non_negative(const std::string& key, Real fallback) {
     const Real v = real(key, fallback);
-    if (!(v >= 0) || !std::isfinite(v)) fail(key, "must be a finite number >= 0, got " + number(v));
+    if (!(v >= 0) || !std::isfinite(v)) fail(key, "must be a finite number >= 0" + unit(key) + ", got " + number(v));
     return v;
   }
 
   Real required_positive(const std::string& key) {
-    if (!table_.contains(key)) fail(key, "is required (a finite number > 0)");
+    if (!table_.contains(key)) fail(key, "is required: a finite number > 0" + unit(key));
     return positive(key, 0);
   }
 
   int integer(const std::string& key, int fallback) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return fallback;
     if (auto v = node->value_exact<int64_t>()) {
@@ -131,7 +219,7 @@ class TableReader {
 
   /// A non-negative 64-bit integer (seeds).
   std::uint64_t unsigned_integer(const std::string& key, std::uint64_t fallback) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return fallback;
     if (auto v = node->value_exact<int64_t>(); v && *v >= 0) return static_cast<std::uint64_t>(*v);
@@ -139,7 +227,7 @@ class TableReader {
   }
 
   bool boolean(const std::string& key, bool fallback) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return fallback;
     if (auto v = node->value_exact<bool>()) return *v;
@@ -147,7 +235,7 @@ class TableReader {
   }
 
   std::string string(const std::string& key, const std::string& fallback) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return fallback;
     if (auto v = node->value_exact<std::string>()) return *v;
@@ -157,7 +245,7 @@ class TableReader {
   /// A string that must be one of `choices`; returns its index.
   std::size_t choice(const std::string& key, const std::vector<std::string>& choices, std::size_t fallback) {
     if (!table_.contains(key)) {
-      used_.insert(key);
+      use(key);
       return fallback;
     }
     const std::string v = string(key, "");
@@ -167,17 +255,17 @@ class TableReader {
   }
 
   Vec3 vec3(const std::string& key, const Vec3& fallback) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return fallback;
     const toml::array* a = node->as_array();
-    if (!a || a->size() != 3) fail(key, "expected an array of 3 numbers [x, y, z]");
+    if (!a || a->size() != 3) fail(key, "expected an array of 3 numbers [x, y, z]" + unit(key));
     Vec3 v;
     for (std::size_t i = 0; i < 3; ++i) {
       const toml::node& e = *a->get(i);
       if (auto d = e.value_exact<double>()) v[static_cast<int>(i)] = *d;
       else if (auto n = e.value_exact<int64_t>()) v[static_cast<int>(i)] = static_cast<Real>(*n);
-      else fail_at(e.source().begin.line == 0 ? &e : node, key, "expected an array of 3 numbers [x, y, z]");
+      else fail_at(e.source().begin.line == 0 ? &e : node, key, "expected an array of 3 numbers [x, y, z]" + unit(key));
     }
     if (!v.allFinite()) fail(key, "components must be finite");
     return v;
@@ -185,7 +273,7 @@ class TableReader {
 
   /// An array of points [[x, y, z], ...].
   std::vector<Vec3> vec3_list(const std::string& key) {
-    used_.insert(key);
+    use(key);
     std::vector<Vec3> out;
     const toml::node* node = table_.get(key);
     if (!node) return out;
@@ -208,7 +296,7 @@ class TableReader {
   }
 
   const toml::table* table(const std::string& key) {
-    used_.insert(key);
+    use(key);
     const toml::node* node = table_.get(key);
     if (!node) return nullptr;
     if (const toml::table* t = node->as_table()) return t;
@@ -217,7 +305,7 @@ class TableReader {
 
   /// An array of tables ([[key]] in TOML).
   std::vector<const toml::table*> tables(const std::string& key) {
-    used_.insert(key);
+    use(key);
     std::vector<const toml::table*> out;
     const toml::node* node = table_.get(key);
     if (!node) return out;
@@ -231,7 +319,7 @@ class TableReader {
   }
 
   const toml::node* node(const std::string& key) {
-    used_.insert(key);
+    use(key);
     return table_.get(key);
   }
 
@@ -259,6 +347,7 @@ class TableReader {
 
   const std::string& file() const { return file_; }
   const toml::table& raw() const { return table_; }
+  bool contains(const std::string& key) const { return table_.contains(key); }
   int line() const { return static_cast<int>(table_.source().begin.line); }
   int column() const { return static_cast<int>(table_.source().begin.column); }
   const std::string& path() const { return path_; }
@@ -270,9 +359,25 @@ class TableReader {
   }
 
  private:
+  /// Marks `key` as known here (finish() accepts it). A key outside the schema is a bug of the
+  /// loader, not of the scene: std::logic_error (tests and the fuzzer report it).
+  const SceneKey& use(const std::string& key) {
+    const std::string full = schema_path_.empty() ? key : schema_path_ + "." + key;
+    const SceneKey* known = find_key(full);
+    if (!known)
+      throw std::logic_error("scene loader reads '" + full + "', which is not in its schema (scene_loader.cpp)");
+    if (key_recorder) key_recorder->insert(full);
+    used_.insert(key);
+    return *known;
+  }
+
+  /// " (unit)" for a key with a physical unit, else nothing: for messages about its value.
+  std::string unit(const std::string& key) { return with_unit(use(key).unit); }
+
   const toml::table& table_;
   std::string path_;
   const std::string& file_;
+  std::string schema_path_;
   std::set<std::string> used_;
 };
 
@@ -288,13 +393,17 @@ Damping read_damping(TableReader& r, const std::string& key, bool allow_restitut
       {"gamma", DampingKind::gamma}};
   Damping out;
   int given = 0;
+  // Restitution is no key of a tangential damping: rejected with its reason, not as unknown.
+  if (!allow_restitution && d.contains("restitution"))
+    d.fail("restitution", "restitution is only defined for the normal damping; here give damping_ratio, coefficient "
+                          "[N s/m], tsuji_alpha or gamma [1/s]");
   for (const auto& [name, kind] : kinds) {
+    if (kind == DampingKind::restitution && !allow_restitution) continue;
     if (!d.has(name)) continue;
     ++given;
     out.kind = kind;
     out.value = d.non_negative(name, 0);
     if (kind == DampingKind::restitution) {
-      if (!allow_restitution) d.fail(name, "restitution is only defined for the normal damping");
       if (!(out.value > 0 && out.value <= 1)) d.fail(name, "restitution must be in (0, 1], got " + TableReader::number(out.value));
     }
   }
@@ -327,6 +436,9 @@ void read_materials(TableReader& top, Scene& scene) {
     MaterialConfig m;
     m.name = r.string("name", "");
     if (m.name.empty()) r.fail("name", "every material needs a non-empty name");
+    if (!fits_csv_cell(m.name))
+      r.fail("name", "'" + m.name + "': a material name may not hold a comma, quote or line break, nor start or end "
+                     "with a space or tab (particle files name materials in a CSV column)");
     for (const auto& other : scene.world.materials)
       if (other.name == m.name) r.fail("name", "material '" + m.name + "' is defined twice");
     m.density = r.required_positive("density");
@@ -385,20 +497,42 @@ void read_contacts(TableReader& top, Scene& scene) {
     r.finish();
     scene.world.contacts.push_back(c);
   }
-  const bool has_default = std::any_of(scene.world.contacts.begin(), scene.world.contacts.end(),
-                                       [](const ContactConfig& c) { return c.material_a.empty(); });
-  if (!has_default) {
-    // Every material pair must be covered when no default is given.
-    for (const auto& a : scene.world.materials)
-      for (const auto& b : scene.world.materials) {
-        const bool covered = std::any_of(scene.world.contacts.begin(), scene.world.contacts.end(), [&](const ContactConfig& c) {
-          return (c.material_a == a.name && c.material_b == b.name) || (c.material_a == b.name && c.material_b == a.name);
-        });
-        if (!covered)
-          top.fail("contacts", "no contact parameters for materials '" + a.name + "' and '" + b.name +
-                                   "': add a [[contacts]] entry for them or one without `materials` as the default");
-      }
-  }
+}
+
+/// Every pair of materials that can meet needs contact parameters, from an entry naming the pair or
+/// the default entry: two particle materials (a material with itself included), or a particle
+/// material and a wall material. Walls never touch walls, so a pair of wall materials (or of
+/// materials nothing uses) needs no entry. Called once particles and walls are read.
+void check_contact_pairs(TableReader& top, const Scene& scene) {
+  const auto& contacts = scene.world.contacts;
+  const auto is_default = [](const ContactConfig& c) { return c.material_a.empty(); };
+  if (std::any_of(contacts.begin(), contacts.end(), is_default)) return;
+  const auto& materials = scene.world.materials;
+  std::map<std::string, std::size_t> index;
+  for (std::size_t i = 0; i < materials.size(); ++i) index[materials[i].name] = i;
+  std::vector<bool> particle(materials.size()), wall(materials.size());  // used by particles, by walls
+  for (const ParticleConfig& p : scene.world.particles) particle[index.at(p.material)] = true;
+  for (const WallConfig& w : scene.world.walls) wall[index.at(w.material)] = true;
+  for (std::size_t i = 0; i < materials.size(); ++i)
+    for (std::size_t j = i; j < materials.size(); ++j) {
+      const std::string &a = materials[i].name, &b = materials[j].name;
+      std::string meet;
+      if (particle[i] && particle[j])
+        meet = i == j ? "particles of '" + a + "' touch each other"
+                      : "particles of '" + a + "' touch particles of '" + b + "'";
+      else if (particle[i] && wall[j])
+        meet = "particles of '" + a + "' touch walls of '" + b + "'";
+      else if (particle[j] && wall[i])
+        meet = "particles of '" + b + "' touch walls of '" + a + "'";
+      if (meet.empty()) continue;
+      const bool covered = std::any_of(contacts.begin(), contacts.end(), [&](const ContactConfig& c) {
+        return (c.material_a == a && c.material_b == b) || (c.material_a == b && c.material_b == a);
+      });
+      if (!covered)
+        top.fail("contacts", "no contact parameters for materials '" + a + "' and '" + b + "' (" + meet +
+                                 "): add a [[contacts]] entry with materials = [\"" + a + "\", \"" + b +
+                                 "\"] and at least normal_stiffness, or one without `materials` as the default");
+    }
 }
 
 void read_walls(TableReader& top, Scene& scene, const std::string& base_dir) {
@@ -499,7 +633,10 @@ ParticleSource source_of(const toml::node& node, const std::string& file, const 
   return {file, static_cast<int>(node.source().begin.line), static_cast<int>(node.source().begin.column), field};
 }
 
-void read_particles(TableReader& top, Scene& scene, const std::string& base_dir) {
+/// Reads [[particles]], [[particle_files]] and [[generators]]; `id_cells` gets, per particle, where
+/// its id was given (a CSV cell; empty for a particle without one).
+void read_particles(TableReader& top, Scene& scene, const std::string& base_dir,
+                    std::vector<ParticleSource>& id_cells) {
   const auto explicit_list = top.tables("particles");
   for (std::size_t i = 0; i < explicit_list.size(); ++i) {
     TableReader r(*explicit_list[i], indexed("particles", i), top.file());
@@ -525,11 +662,18 @@ void read_particles(TableReader& top, Scene& scene, const std::string& base_dir)
     r.finish();
     const std::filesystem::path path = std::filesystem::path(base_dir) / name;
     if (!std::filesystem::exists(path)) r.fail("file", "file not found: " + path.string());
-    std::vector<ParticleConfig> loaded = read_particle_csv(path.string(), material);
+    ParticleCsvLayout layout;
+    std::vector<ParticleConfig> loaded = read_particle_csv(path.string(), material, &layout);
     for (std::size_t k = 0; k < loaded.size(); ++k) {
+      const int line = layout.lines[k];
+      if (layout.material_column > 0 && !known_material(scene, loaded[k].material))
+        throw InputError(path.string(), line, layout.material_column, "material",
+                         "unknown material '" + loaded[k].material + "'; defined: " + material_names(scene));
       loaded[k].position += offset;
+      id_cells.resize(scene.world.particles.size());
+      id_cells.push_back({path.string(), line, layout.id_column, "id"});
       scene.world.particles.push_back(loaded[k]);
-      scene.sources.push_back({path.string(), static_cast<int>(k + 2), 1, r.path() + " row " + std::to_string(k + 1)});
+      scene.sources.push_back({path.string(), line, 1, r.path() + " row " + std::to_string(k + 1)});
     }
   }
   const auto generators = top.tables("generators");
@@ -830,7 +974,62 @@ std::uint64_t mesh_fingerprint(const TriangleMesh& mesh) {
   return fnv1a(bytes);
 }
 
+/// When a particle file gives ids: gives every particle its id, the one its file gave, else (in
+/// scene order) the next after the largest id given; orders particles (and their sources) by id, as
+/// a World needs them (slots follow ids); rejects an id given twice. A scene without ids keeps its
+/// order and leaves ids to the World, which numbers particles 0, 1, 2, ... in that order.
+void assign_particle_ids(Scene& scene, std::vector<ParticleSource> id_cells) {
+  std::vector<ParticleConfig>& particles = scene.world.particles;
+  const std::size_t n = particles.size();
+  id_cells.resize(n);
+  std::optional<std::size_t> largest;  // the particle with the largest given id
+  for (std::size_t i = 0; i < n; ++i)
+    if (particles[i].id && (!largest || *particles[i].id > *particles[*largest].id)) largest = i;
+  if (!largest) return;
+  const auto fail_at = [&](std::size_t i, const std::string& message) {
+    const ParticleSource& c = id_cells[i];
+    throw InputError(c.file, c.line, c.column, c.field, message);
+  };
+  // A World maps every id up to the largest to a slot (4 bytes each): ids far beyond the particle
+  // count would make that map huge.
+  constexpr std::uint64_t spare_ids = std::uint64_t{1} << 26;
+  const std::uint64_t top = *particles[*largest].id;
+  if (top >= n + spare_ids)
+    fail_at(*largest, "id " + std::to_string(top) + " leaves more than " + std::to_string(spare_ids) +
+                          " ids unused below it (the engine keeps a slot for every id up to the largest): number the "
+                          "particles from 0, below " + std::to_string(n + spare_ids));
+  std::uint64_t next = top + 1;  // below n + spare_ids + n: far inside ParticleId
+  for (std::size_t i = 0; i < n; ++i)
+    if (!particles[i].id) particles[i].id = static_cast<ParticleId>(next++);
+  std::vector<std::size_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return *particles[a].id < *particles[b].id; });
+  for (std::size_t k = 1; k < n; ++k) {
+    const std::size_t a = order[k - 1], b = order[k];
+    if (*particles[a].id == *particles[b].id) {
+      const ParticleSource& other = id_cells[a];
+      fail_at(b, "id " + std::to_string(*particles[b].id) + " is also given in " + other.file + " line " +
+                     std::to_string(other.line) + ": every particle needs its own id, a whole number from 0 to " +
+                     std::to_string(std::numeric_limits<ParticleId>::max() - 1));
+    }
+  }
+  std::vector<ParticleConfig> sorted_particles(n);
+  std::vector<ParticleSource> sorted_sources(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    sorted_particles[k] = std::move(particles[order[k]]);
+    sorted_sources[k] = std::move(scene.sources[order[k]]);
+  }
+  particles = std::move(sorted_particles);
+  scene.sources = std::move(sorted_sources);
+}
+
 }  // namespace
+
+const std::vector<SceneKey>& scene_keys() { return schema; }
+
+SceneKeyRecorder::SceneKeyRecorder() : previous_(key_recorder) { key_recorder = &keys_; }
+SceneKeyRecorder::~SceneKeyRecorder() { key_recorder = previous_; }
 
 Scene load_scene_text(const std::string& text, const std::string& file, const std::string& base_dir,
                       const std::vector<std::string>& overrides) {
@@ -855,8 +1054,10 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   read_materials(top, scene);
   read_contacts(top, scene);
   read_walls(top, scene, base_dir);
-  read_particles(top, scene, base_dir);
+  std::vector<ParticleSource> id_cells;
+  read_particles(top, scene, base_dir, id_cells);
   read_mill(top, scene);
+  check_contact_pairs(top, scene);
   const bool level_max_given = read_integrator(top, scene);
   read_run_and_output(top, scene);
   read_accuracy(top, scene);
@@ -873,6 +1074,7 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
   }
   if (scene.world.particles.empty())
     top.fail("particles", "the scene has no particles: add [[particles]], [[particle_files]] or [[generators]]");
+  assign_particle_ids(scene, std::move(id_cells));
   // The physics hash ignores how long the run lasts and what it writes, so a run can be resumed
   // with another end time or output interval, but never with other physics.
   toml::table physics = root;
@@ -903,6 +1105,10 @@ void check_initial_state(const Scene& scene) {
     const ParticleSource& s = p < scene.sources.size() ? scene.sources[p] : ParticleSource{scene.file, 0, 0, ""};
     throw InputError(s.file, s.line, s.column, s.field, message);
   };
+  // Messages name particles by id (as outputs do); a scene made in code may leave ids to the World.
+  const auto id_of = [&](std::size_t p) -> std::uint64_t {
+    return particles[p].id.value_or(static_cast<ParticleId>(p));
+  };
   std::vector<Vec3> position(particles.size());
   std::vector<Real> radius(particles.size());
   for (std::size_t p = 0; p < particles.size(); ++p) {
@@ -920,8 +1126,8 @@ void check_initial_state(const Scene& scene) {
       const Real allowed = scene.max_initial_overlap * std::min(radius[a], radius[b]);
       if (overlap > allowed) {
         std::ostringstream m;
-        m << "particle " << b << " overlaps particle " << a << " by " << overlap << " m at the start; at most "
-          << allowed << " m (scene.max_initial_overlap = " << scene.max_initial_overlap
+        m << "particle " << id_of(b) << " overlaps particle " << id_of(a) << " by " << overlap
+          << " m at the start; at most " << allowed << " m (scene.max_initial_overlap = " << scene.max_initial_overlap
           << " of the smaller radius) is allowed";
         fail(b, m.str());
       }
@@ -949,11 +1155,12 @@ void check_initial_state(const Scene& scene) {
         const Vec3 axis = c.axis.normalized();
         outside = (rel - rel.dot(axis) * axis).norm() > c.radius && std::abs(rel.dot(axis)) <= 0.5 * c.length;
       }
-      if (outside) fail(p, "particle " + std::to_string(p) + " starts outside wall '" + c.name + "'");
+      if (outside) fail(p, "particle " + std::to_string(id_of(p)) + " starts outside wall '" + c.name + "'");
       if (overlap > scene.max_initial_overlap * radius[p]) {
         std::ostringstream m;
-        m << "particle " << p << " overlaps wall '" << c.name << "' by " << overlap << " m at the start; at most "
-          << scene.max_initial_overlap * radius[p] << " m (scene.max_initial_overlap of its radius) is allowed";
+        m << "particle " << id_of(p) << " overlaps wall '" << c.name << "' by " << overlap
+          << " m at the start; at most " << scene.max_initial_overlap * radius[p]
+          << " m (scene.max_initial_overlap of its radius) is allowed";
         fail(p, m.str());
       }
     }

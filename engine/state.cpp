@@ -1,13 +1,26 @@
 #include "engine/state.h"
 
+#include <stdexcept>
+#include <string>
+
 namespace dem {
 
 ParticleIndex State::add(const Vec3& x, const Vec3& v, const Vec3& w, Real r, Real inv_m, Real inv_i,
                          std::uint16_t mat) {
+  return add(next_id(), x, v, w, r, inv_m, inv_i, mat);
+}
+
+ParticleIndex State::add(ParticleId given_id, const Vec3& x, const Vec3& v, const Vec3& w, Real r, Real inv_m,
+                         Real inv_i, std::uint16_t mat) {
+  if (given_id < next_id() || given_id == std::numeric_limits<ParticleId>::max())
+    throw std::invalid_argument("particle id " + std::to_string(given_id) +
+                                " is taken or out of order: ids must increase (the next is at least " +
+                                std::to_string(next_id()) + ") and stay below " +
+                                std::to_string(std::numeric_limits<ParticleId>::max()));
   const auto slot = static_cast<ParticleIndex>(size());
-  const auto new_id = static_cast<ParticleId>(index_of_id.size());
-  id.push_back(new_id);
-  index_of_id.push_back(slot);
+  id.push_back(given_id);
+  index_of_id.resize(std::size_t{given_id} + 1, removed_slot);
+  index_of_id[given_id] = slot;
   position.push_back(x);
   velocity.push_back(v);
   angular_velocity.push_back(w);

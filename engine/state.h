@@ -32,6 +32,12 @@ struct State {
   /// Appends one particle with the next free id and returns its slot.
   ParticleIndex add(const Vec3& x, const Vec3& v, const Vec3& w, Real r, Real inv_m, Real inv_i,
                     std::uint16_t mat);
+  /// The same with a given id, which must be next_id() or larger (slots stay in id order, ids are
+  /// never reused); the ids skipped map to removed_slot. Throws std::invalid_argument otherwise.
+  ParticleIndex add(ParticleId given_id, const Vec3& x, const Vec3& v, const Vec3& w, Real r, Real inv_m,
+                    Real inv_i, std::uint16_t mat);
+  /// The id add() gives next: one past the largest id ever given.
+  ParticleId next_id() const { return static_cast<ParticleId>(index_of_id.size()); }
   /// Reserves room for n particles in every array (a scene's particles, added one by one, would
   /// otherwise leave the arrays up to twice their size).
   void reserve(std::size_t n);

@@ -82,7 +82,8 @@ void World::add_particles() {
   const bool disc = config_.model.dimension == 2;
   const Real kappa = inertia_factor(config_.model.dimension);
   state_.reserve(state_.size() + config_.particles.size());
-  for (const ParticleConfig& p : config_.particles) {
+  for (std::size_t i = 0; i < config_.particles.size(); ++i) {
+    ParticleConfig& p = config_.particles[i];
     const int mat = materials_.find(p.material);
     if (mat < 0) throw std::invalid_argument("particle names an unknown material '" + p.material + "'");
     const Real mass = particle_mass(p, materials_.density(static_cast<std::uint16_t>(mat)), config_.model.dimension,
@@ -95,7 +96,13 @@ void World::add_particles() {
       v.z() = 0;
       w.x() = w.y() = 0;
     }
-    state_.add(x, v, w, p.radius, inv_mass, inv_inertia, static_cast<std::uint16_t>(mat));
+    if (p.id && *p.id < state_.next_id())
+      throw std::invalid_argument("particle " + std::to_string(i) + " has id " + std::to_string(*p.id) +
+                                  ", not above the ids before it: slots follow ids, so given ids must increase along "
+                                  "config.particles");
+    const ParticleIndex slot = state_.add(p.id.value_or(state_.next_id()), x, v, w, p.radius, inv_mass, inv_inertia,
+                                          static_cast<std::uint16_t>(mat));
+    p.id = state_.id[slot];  // so particles() finds each particle's config by its id
   }
 }
 

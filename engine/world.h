@@ -104,6 +104,8 @@ class World {
   /// tbb::task_arena, for observers).
   TaskArena& arena() const { return *arena_; }
 
+  /// The configuration the world was built from, each particle with the id it got, and every
+  /// particle add_particle added since.
   const WorldConfig& config() const { return config_; }
   const State& state() const { return state_; }
   const MaterialTable& materials() const { return materials_; }
@@ -203,6 +205,11 @@ class World {
   const Vec3& velocity(ParticleId id) const;          ///< [m/s]
   const Vec3& angular_velocity(ParticleId id) const;  ///< [rad/s]
 
+  /// The live particles in id order as configs that rebuild them: id, position, velocity, angular
+  /// velocity, radius, material, and the mass or the density each was given (its material's density
+  /// when it was given neither), so a World made from them has the same ids, masses, inertias and
+  /// radii bit for bit (what a settled file holds, engine/particle_csv.h).
+  std::vector<ParticleConfig> particles() const;
   /// Every pair and wall contact of the last force evaluation: pairs in key order (ascending id
   /// pairs), then wall contacts in key order (ascending particle id, wall, feature). For each wall w,
   /// the sum of -force over its contacts is wall_loads()[w].force (Newton's third law).

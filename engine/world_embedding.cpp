@@ -99,6 +99,32 @@ std::optional<std::size_t> World::find_wall(const std::string& name) const {
   return std::nullopt;
 }
 
+std::vector<ParticleConfig> World::particles() const {
+  std::vector<ParticleConfig> out;
+  out.reserve(state_.size());
+  const auto by_id = [](const ParticleConfig& c, ParticleId id) { return *c.id < id; };
+  for (std::size_t p = 0; p < state_.size(); ++p) {  // slots are in id order
+    ParticleConfig c;
+    c.id = state_.id[p];
+    c.position = state_.position[p];
+    c.velocity = state_.velocity[p];
+    c.angular_velocity = state_.angular_velocity[p];
+    c.radius = state_.radius[p];
+    c.material = materials_.name(state_.material[p]);
+    // config_.particles holds every particle ever added, each with its id, in id order.
+    const auto given = std::lower_bound(config_.particles.begin(), config_.particles.end(), state_.id[p], by_id);
+    if (given != config_.particles.end() && *given->id == state_.id[p]) {
+      // particle_mass's rule: a given mass wins, else a given density, else the material's.
+      if (given->mass > 0) c.mass = given->mass;
+      else c.density = given->density > 0 ? given->density : materials_.density(state_.material[p]);
+    } else {
+      c.mass = 1 / state_.inv_mass[p];  // restored from a checkpoint of another population: as near as can be
+    }
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
 // ---- feed and discharge ------------------------------------------------------------------------
 
 bool World::is_free(const Vec3& position, Real radius) const {
@@ -134,7 +160,14 @@ ParticleId World::add_particle(const ParticleConfig& p) {
   }
   if (!is_free(x, p.radius))
     throw std::invalid_argument("add_particle: the particle would overlap a particle or a wall (see World::is_free)");
-  const ParticleIndex slot = state_.add(x, v, w, p.radius, inv_mass, inv_inertia, static_cast<std::uint16_t>(mat));
+  if (p.id && *p.id < state_.next_id())
+    throw std::invalid_argument("add_particle: id " + std::to_string(*p.id) +
+                                " is taken or below a given id (ids are never reused): give " +
+                                std::to_string(state_.next_id()) + " or more, or no id");
+  const ParticleIndex slot = state_.add(p.id.value_or(state_.next_id()), x, v, w, p.radius, inv_mass, inv_inertia,
+                                        static_cast<std::uint16_t>(mat));
+  config_.particles.push_back(p);  // what it was given, for particles()
+  config_.particles.back().id = state_.id[slot];
   // Energy books: the newcomer's energy joins the reference, as if it had been there from the start
   // (the same terms as energies()).
   if (is_audited(inv_mass)) {

@@ -65,7 +65,7 @@ std::vector<double> series_row(const World& world) {
 
 void append_trajectories(SeriesWriter& out, const World& world) {
   const State& s = world.state();
-  for (ParticleIndex p : s.index_of_id) {
+  for (std::size_t p = 0; p < s.size(); ++p) {  // slots are in id order
     const Vec3 &x = s.position[p], &v = s.velocity[p], &w = s.angular_velocity[p];
     out.append({world.time(), static_cast<double>(s.id[p]), x.x(), x.y(), x.z(), v.x(), v.y(), v.z(), w.x(), w.y(), w.z()});
   }
@@ -83,7 +83,7 @@ std::vector<double> wall_row(const World& world) {
 ParticleSnapshot snapshot_of(const World& world) {
   const State& s = world.state();
   ParticleSnapshot snap;
-  for (ParticleIndex p : s.index_of_id) {
+  for (std::size_t p = 0; p < s.size(); ++p) {  // slots are in id order
     snap.id.push_back(s.id[p]);
     snap.position.push_back(s.position[p]);
     snap.velocity.push_back(s.velocity[p]);
@@ -368,20 +368,10 @@ int run_command(const RunOptions& options) {
   progress.finish();
   const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_wall).count();
 
-  if (!scene.output.settled_file.empty() && divergence.empty()) {
-    std::vector<ParticleConfig> settled;
-    const State& s = world.state();
-    for (ParticleIndex p : s.index_of_id) {
-      ParticleConfig c;
-      c.position = s.position[p];
-      c.velocity = s.velocity[p];
-      c.angular_velocity = s.angular_velocity[p];
-      c.radius = s.radius[p];
-      c.density = world.materials().density(s.material[p]);
-      settled.push_back(c);
-    }
-    write_particle_csv((out / scene.output.settled_file).string(), settled);
-  }
+  // Everything a run restarted from the file needs to go on as this one would: ids, the mass or
+  // density each particle was given, material and state (engine/particle_csv.h).
+  if (!scene.output.settled_file.empty() && divergence.empty())
+    write_particle_csv((out / scene.output.settled_file).string(), world.particles());
 
   const RunCounters& c = world.counters();
   JsonObject settings;

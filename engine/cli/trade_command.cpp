@@ -157,7 +157,7 @@ Sample sample_of(const World& world, bool trajectory, const Vec3& up) {
   s.time = world.time();
   const State& st = world.state();
   if (trajectory)
-    for (ParticleIndex p : st.index_of_id) {
+    for (std::size_t p = 0; p < st.size(); ++p) {  // slots are in id order
       s.position.push_back(st.position[p]);
       s.velocity.push_back(st.velocity[p]);
     }
