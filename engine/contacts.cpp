@@ -240,8 +240,14 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
     }
     for (std::uint32_t k = lists->row_start(p); k < lists->row_start(p + 1); ++k) visit(lists->wall(k));
   };
-  work.count.resize(n);
-  parallel_for(n, [&](std::size_t p) {
+  // With lists, only the particles they list are visited (the rest touch no wall and count 0); in
+  // ascending order either way, so the contacts come out in key order.
+  const std::size_t visited = lists ? lists->listed_particles().size() : n;
+  const auto particle = [&](std::size_t v) -> std::size_t { return lists ? lists->listed_particles()[v] : v; };
+  if (visited < n) work.count.assign(n, 0);
+  else work.count.resize(n);
+  parallel_for(visited, [&](std::size_t v) {
+    const std::size_t p = particle(v);
     std::uint32_t c = 0;
     for_each_wall(p, [&](std::size_t w) { c += walls.touching_count(w, s.position[p], s.radius[p]); });
     work.count[p] = c;
@@ -249,7 +255,8 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
   exclusive_scan(work.count, wall_start);
   WallContacts& fresh = work.walls;
   fresh.resize(wall_start[n]);
-  parallel_for(n, [&](std::size_t p) {
+  parallel_for(visited, [&](std::size_t v) {
+    const std::size_t p = particle(v);
     std::uint32_t slot = wall_start[p];
     for_each_wall(p, [&](std::size_t w) {
       // The features go straight into this particle's slots, whose number the count above fixed.

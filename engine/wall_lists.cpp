@@ -22,7 +22,11 @@ void WallLists::build(const State& s, const Walls& walls, Real margin) {
     for (std::size_t w = 0; w < walls.count(); ++w) c += listed(p, w) ? 1 : 0;
     start_[p + 1] = c;
   });
-  for (std::size_t p = 0; p < n; ++p) start_[p + 1] += start_[p];
+  listed_.clear();
+  for (std::size_t p = 0; p < n; ++p) {
+    if (start_[p + 1] > 0) listed_.push_back(static_cast<std::uint32_t>(p));
+    start_[p + 1] += start_[p];
+  }
   wall_.resize(start_[n]);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t k = start_[p];
@@ -56,7 +60,7 @@ bool WallLists::valid(const State& s, const Walls& walls) const {
 }
 
 std::size_t WallLists::memory_bytes() const {
-  return start_.capacity() * sizeof(std::uint32_t) + wall_.capacity() * sizeof(std::uint16_t) +
+  return (start_.capacity() + listed_.capacity()) * sizeof(std::uint32_t) + wall_.capacity() * sizeof(std::uint16_t) +
          reference_.capacity() * sizeof(Eigen::Vector3f);
 }
 

@@ -1,10 +1,10 @@
 #pragma once
 // A broadphase for walls: for every particle, the walls it may touch before the lists go stale.
-// Walls::filtered ones (lifter bars, and planes, boxes and cylinders that do not turn) enter a
-// particle's list only when within `margin` of it at the build; every other wall (a turning shell, a
-// mesh) is listed for every movable particle. The lists stay valid while each
-// particle's displacement since the build plus the filtered walls' largest travel (Walls::max_travel)
-// is at most the margin: then no wall left out can have come into touch. The lists only skip tests
+// Walls::filtered ones (lifter bars, resting containers, and planes and cylinders turning in place
+// such as a mill's shell and end walls) enter a particle's list only when within `margin` of it at
+// the build; every other wall (a turning box, a mesh) is listed for every movable particle. The lists
+// stay valid while each particle's displacement since the build plus the filtered walls' largest
+// travel (Walls::max_travel) is at most the margin: then no wall left out can have come into touch. The lists only skip tests
 // that could not succeed, so contacts and results are the same as with no lists at all.
 // Threading: build and the validity test are per particle, each writing only its own row, so the
 // lists do not depend on the thread count.
@@ -33,6 +33,8 @@ class WallLists {
   /// The walls listed for particle p, ascending: entries [row_start(p), row_start(p + 1)).
   std::uint32_t row_start(std::size_t p) const { return start_[p]; }
   std::uint16_t wall(std::uint32_t k) const { return wall_[k]; }
+  /// The particles whose lists are not empty, ascending: the only ones that can touch a wall.
+  const std::vector<std::uint32_t>& listed_particles() const { return listed_; }
 
   /// Heap bytes held.
   std::size_t memory_bytes() const;
@@ -40,6 +42,7 @@ class WallLists {
  private:
   std::vector<std::uint32_t> start_;  // size n + 1
   std::vector<std::uint16_t> wall_;   // wall indices (types.h: max_walls fits 16 bits)
+  std::vector<std::uint32_t> listed_;  // particles with a non-empty list, ascending
   std::vector<Eigen::Vector3f> reference_;  // positions at the build, in float (memory) [m]
   Real rounding_ = 0;                 // bound on the float copy's error in a displacement [m]
   Real time_ = 0;                     // the walls' time at the build [s]

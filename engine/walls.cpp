@@ -237,10 +237,33 @@ bool Walls::touch_prism(std::size_t w, const Vec3& x, Real r, WallTouch& out) co
   return true;
 }
 
+namespace {
+
+/// True when wall c's turning leaves its surface where it is: it does not turn, or it is a plane
+/// turning about its normal, or a cylinder turning about its own axis (the rotation centre on it).
+/// Only its translation moves such a wall.
+bool turns_in_place(const WallConfig& c) {
+  if (c.angular_velocity.norm() == 0) return true;
+  if (c.kind == WallKind::plane) return c.angular_velocity.cross(c.normal).norm() == 0;
+  if (c.kind == WallKind::cylinder)
+    return c.angular_velocity.cross(c.axis).norm() == 0 && (c.rotation_center - c.point).cross(c.axis).norm() == 0;
+  return false;
+}
+
+}  // namespace
+
 bool Walls::filtered(std::size_t w) const {
   const WallConfig& c = config_[w];
-  if (c.kind == WallKind::prism) return true;
-  return c.kind != WallKind::mesh && c.angular_velocity.norm() == 0;
+  switch (c.kind) {
+    case WallKind::prism:
+      return true;
+    case WallKind::mesh:
+      return false;
+    case WallKind::box:
+      return c.angular_velocity.norm() == 0;
+    default:
+      return turns_in_place(c);
+  }
 }
 
 bool Walls::may_touch(std::size_t w, const Vec3& x, Real r, Real margin) const {
@@ -288,7 +311,15 @@ Real Walls::max_travel(std::size_t w, Real t0, Real t1) const {
   // filtered wall other than a prism does not turn (and has no prism reach): it travels with its centre.
   const WallConfig& c = config_[w];
   const Real distance = ramp_distance(t1, c.ramp_time) - ramp_distance(t0, c.ramp_time);
-  return (c.velocity.norm() + c.angular_velocity.norm() * prism_[w].reach) * std::abs(distance);
+  Real travel = (c.velocity.norm() + c.angular_velocity.norm() * prism_[w].reach) * std::abs(distance);
+  // A plane or cylinder turning in place (turns_in_place): its posed normal or axis is the configured
+  // one up to the rounding of the rotation matrix, which moves the computed surface by a few ulps of
+  // the coordinates; one nanometre per metre of its extent bounds that with room to spare.
+  if (c.kind != WallKind::prism && c.angular_velocity.norm() != 0) {
+    const Real length = std::isfinite(c.length) ? c.length : 0;
+    travel += 1e-9 * (1 + c.point.norm() + c.rotation_center.norm() + c.radius + length);
+  }
+  return travel;
 }
 
 std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features) const {

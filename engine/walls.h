@@ -66,9 +66,9 @@ class Walls {
   /// How many features touching_features would write.
   std::uint32_t touching_count(std::size_t w, const Vec3& x, Real r) const;
   /// Whether the wall lists of a wall broadphase (wall_lists.h) filter wall w: prisms (lifter bars,
-  /// many and small, so most particles are far from most of them) and planes, boxes and cylinders that
-  /// do not turn (a container: most particles are far from its faces). Meshes and turning walls of
-  /// the other kinds (a mill's shell) are tested always.
+  /// many and small, so most particles are far from most of them), boxes that do not turn, and planes
+  /// and cylinders whose turning leaves their surface in place (a container, a mill's shell and end
+  /// walls: most particles are far from them). Meshes and other turning walls are tested always.
   bool filtered(std::size_t w) const;
   /// For a filtered wall: false only when the sphere (centre x, radius r) is more than `margin` [m]
   /// clear of the wall's bound now, so no motion of the two that adds up to at most `margin` brings

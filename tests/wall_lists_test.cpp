@@ -39,8 +39,8 @@ bool listed(const WallLists& lists, std::size_t p, std::size_t w) {
 
 TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
   // Two lifter-like bars turning with a ramp about the origin (one of them also translating), a
-  // plane below, a container box, a translating solid block, a translating cylinder and a turning
-  // one (never filtered).
+  // plane below, a container box, a translating solid block, a translating cylinder, a shell and an
+  // end plane turning in place (a mill's: filtered) and an eccentric turning drum (never filtered).
   std::vector<WallConfig> config;
   config.push_back(bar(Vec3(0.1, 0, 0), 0.01, 0.006, 0.05));
   config.back().angular_velocity = Vec3(0, 0, 6);
@@ -76,10 +76,23 @@ TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
   shell.radius = 0.12;
   shell.angular_velocity = Vec3(0, 0, 3);
   config.push_back(shell);
+  WallConfig end;
+  end.kind = WallKind::plane;
+  end.point = Vec3(0, 0, 0.015);
+  end.normal = -Vec3::UnitZ();
+  end.angular_velocity = Vec3(0, 0, 3);
+  config.push_back(end);
+  WallConfig eccentric = shell;
+  eccentric.radius = 0.115;
+  eccentric.point = Vec3(0.01, 0, 0);
+  eccentric.rotation_center = Vec3::Zero();
+  eccentric.use_rotation_center = true;
+  config.push_back(eccentric);
   const std::size_t turning = config.size() - 1;
   Walls walls(config, one_material());
-  ASSERT_TRUE(walls.filtered(0) && walls.filtered(2) && walls.filtered(3) && walls.filtered(5));
-  ASSERT_FALSE(walls.filtered(turning));
+  for (std::size_t w = 0; w < turning; ++w)
+    ASSERT_TRUE(walls.filtered(w)) << "wall " << w << " moves without turning, or turns in place";
+  ASSERT_FALSE(walls.filtered(turning)) << "an eccentric turning drum sweeps space: it is never filtered";
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<Real> u(-1, 1);
   State s;
@@ -98,7 +111,7 @@ TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
     lists.build(s, walls, margin);
     EXPECT_EQ(lists.row_start(s.size() - 1), lists.row_start(s.size())) << "an immovable particle lists no wall";
     for (std::size_t p = 0; p + 1 < s.size(); ++p) {
-      EXPECT_TRUE(listed(lists, p, turning)) << "a turning cylinder is never filtered";
+      EXPECT_TRUE(listed(lists, p, turning)) << "an eccentric turning drum is never filtered";
       filtered_out += !listed(lists, p, 0) + !listed(lists, p, 1);
     }
     // Move walls and particles by random amounts, some beyond what the lists allow.
