@@ -247,7 +247,8 @@ int run_command(const RunOptions& options) {
   // checkpoint's time and drops anything later (written after the checkpoint by the run that died).
   const bool resuming = !options.resume.empty();
   if (!resuming)
-    for (const char* file : {"series.csv", "walls.csv", "trajectories.csv", "particles.pvd", "walls.pvd", "contacts.pvd"})
+    for (const char* file :
+         {"series.csv", "walls.csv", "trajectories.csv", "particles.pvd", "walls.pvd", "contacts.pvd"})
       std::filesystem::remove(out / file);
   SeriesWriter series(out / "series.csv", series_columns());
   std::optional<SeriesWriter> trajectories;
