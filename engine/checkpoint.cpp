@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <type_traits>
 
-#include "engine/output.h"
+#include "engine/atomic_file.h"
 #include "engine/world.h"
 
 namespace dem {

@@ -2,10 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <string>
-
-#include "engine/output.h"
 
 namespace dem {
 
@@ -85,22 +81,6 @@ double CollisionSpectra::total(Kind kind, Quantity quantity) const {
   double sum = 0;
   for (double e : histogram_[kind][quantity].energy) sum += e;
   return sum;
-}
-
-void CollisionSpectra::write_csv(const std::filesystem::path& path, double duration) const {
-  std::string text = "kind,quantity,bin_low,bin_high,events,events_per_second,energy\n";
-  char line[256];
-  for (int kind = 0; kind < kind_count; ++kind)
-    for (int q = 0; q < quantity_count; ++q)
-      for (int b = 0; b < bin_count; ++b) {
-        const Histogram& h = histogram_[kind][q];
-        if (h.count[b] == 0) continue;
-        std::snprintf(line, sizeof line, "%s,%s,%.6g,%.6g,%llu,%.17g,%.17g\n", kind_names[kind], quantity_names[q],
-                      b == 0 ? 0.0 : bin_low(b), b == bin_count - 1 ? INFINITY : bin_low(b + 1), static_cast<unsigned long long>(h.count[b]),
-                      duration > 0 ? static_cast<double>(h.count[b]) / duration : 0.0, h.energy[b]);
-        text += line;
-      }
-  write_file_atomically(path, text);
 }
 
 }  // namespace dem

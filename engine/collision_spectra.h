@@ -6,7 +6,6 @@
 // open are not events yet (live_* below gives what they have dissipated so far).
 #include <array>
 #include <cstdint>
-#include <filesystem>
 #include <vector>
 
 #include "engine/contacts.h"
@@ -46,12 +45,11 @@ class CollisionSpectra {
   /// Sum of one quantity over the booked events of one kind that fell in bin b [J].
   double energy(Kind kind, Quantity quantity, int b) const { return histogram_[kind][quantity].energy[b]; }
 
+  /// Number of booked events of one kind whose quantity fell in bin b.
+  std::uint64_t count(Kind kind, Quantity quantity, int b) const { return histogram_[kind][quantity].count[b]; }
+
   /// Lower edge of bin b [J].
   static double bin_low(int b);
-  /// CSV: kind (ball-ball, ball-liner), quantity (impact_energy, normal_dissipated,
-  /// tangential_dissipated: rolling included), bin_low, bin_high [J], events, events_per_second (over `duration` [s]),
-  /// energy [J] (the sum of the binned values). Written atomically.
-  void write_csv(const std::filesystem::path& path, double duration) const;
 
  private:
   static int bin_of(double energy);

@@ -11,7 +11,7 @@
 #include <unordered_map>
 
 #include "engine/input_error.h"
-#include "engine/output.h"
+#include "engine/atomic_file.h"
 
 namespace dem {
 namespace {

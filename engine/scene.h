@@ -23,6 +23,8 @@ struct OutputSettings {
   Real snapshot_interval = -1;       // VTK snapshots [s]; negative: equal to interval; 0: none
   std::string settled_file;          // when set, particles are written here (CSV) at the end
   bool trajectories = false;         // trajectories.csv: every particle's state at every row (few-body scenes)
+  bool contacts = false;             // the contact network (contacts_<n>.vtp, contacts.pvd) with each snapshot
+  bool vtk_ascii = false;            // VTK files as text instead of appended raw binary
 };
 
 /// Metric names an `[accuracy]` section may list (scenes/README.md): `dem trade` measures these.

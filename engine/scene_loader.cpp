@@ -105,7 +105,8 @@ const std::vector<SceneKey> schema = {
     // [run], [output], [broadphase], [accuracy]
     {"run.until", "s"}, {"run.threads", ""}, {"run.stop_kinetic_energy", "J"}, {"run.stop_check_after", "s"},
     {"output.interval", "s"}, {"output.snapshot_interval", "s"}, {"output.settled_file", ""},
-    {"output.trajectories", ""}, {"broadphase.skin", "m"}, {"broadphase.kind", ""}, {"broadphase.wall_lists", ""},
+    {"output.trajectories", ""}, {"output.contacts", ""}, {"output.vtk_format", ""}, {"broadphase.skin", "m"},
+    {"broadphase.kind", ""}, {"broadphase.wall_lists", ""},
     {"accuracy.metrics", ""}};
 
 const SceneKey* find_key(const std::string& path) {
@@ -850,6 +851,8 @@ void read_run_and_output(TableReader& top, Scene& scene) {
     scene.output.snapshot_interval = r.non_negative("snapshot_interval", scene.output.interval);
     scene.output.settled_file = r.string("settled_file", "");
     scene.output.trajectories = r.boolean("trajectories", false);
+    scene.output.contacts = r.boolean("contacts", false);
+    scene.output.vtk_ascii = r.choice("vtk_format", {"binary", "ascii"}, 0) == 1;
     r.finish();
   }
   if (scene.output.snapshot_interval < 0) scene.output.snapshot_interval = scene.output.interval;

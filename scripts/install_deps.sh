@@ -6,15 +6,23 @@
 set -euo pipefail
 # libbenchmark-tools, python3-numpy and python3-scipy: bench/regress and its tests (compare.py);
 # valgrind: bench/instructions, CI's instruction-count gate; python3-matplotlib: the plots dem run and
-# dem trade draw and the bench/ plotting scripts.
+# dem trade draw and the bench/ plotting scripts; python3-vtk9: tests/vtk_reader_test.py reads the VTK
+# snapshots with VTK's own reader.
 packages=(g++ cmake ninja-build git
   libeigen3-dev libtbb-dev libnanoflann-dev libgtest-dev libbenchmark-dev libbenchmark-tools
-  python3-numpy python3-scipy python3-matplotlib libtomlplusplus-dev libcli11-dev valgrind)
+  python3-numpy python3-scipy python3-matplotlib python3-vtk9 libtomlplusplus-dev libcli11-dev valgrind)
 if [ $# -gt 0 ]; then packages=("$@"); fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+# python3-paraview ships the same VTK Python modules and conflicts with python3-vtk9: where it is
+# installed, it serves the test and is left alone (installing python3-vtk9 would remove it).
+if dpkg-query -W -f='${Status}' python3-paraview 2>/dev/null | grep -q "install ok installed"; then
+  kept=()
+  for p in "${missing[@]}"; do [ "$p" = python3-vtk9 ] || kept+=("$p"); done
+  missing=("${kept[@]}")
+fi
 if [ ${#missing[@]} -gt 0 ]; then
   echo "installing: ${missing[*]}"
   export DEBIAN_FRONTEND=noninteractive

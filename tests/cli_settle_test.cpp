@@ -100,6 +100,7 @@ until = 0.06
 interval = 0.02
 snapshot_interval = 0.03
 settled_file = "settled.csv"
+vtk_format = "ascii"   # last_snapshot_ids reads the ids as text
 )";
 
 const char* mixed_scene_particles = R"(

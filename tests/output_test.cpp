@@ -1,9 +1,14 @@
-// Tests of engine/output.h: atomic whole-file writes, the series CSV (bit-exact round trip, resume,
+// Tests of the result writers (atomic_file.h, csv_writer.h, json_writer.h, vtk_writer.h, wall_geometry.h):
+// atomic whole-file writes, the series CSV (bit-exact round trip, resume,
 // truncation), the JSON builder, VTK PolyData snapshots and walls, and the .pvd index.
 // Oracles: files are read back by independent readers written here (a small XML parser, a small JSON
 // parser, strtod), never compared with strings produced by the code under test; wall geometry is checked
 // against closed forms (areas, distances, facing sides).
-#include "engine/output.h"
+#include "engine/atomic_file.h"
+#include "engine/csv_writer.h"
+#include "engine/json_writer.h"
+#include "engine/vtk_writer.h"
+#include "engine/wall_geometry.h"
 
 #include <gtest/gtest.h>
 
@@ -806,6 +811,10 @@ ParticleSnapshot random_snapshot(std::size_t n, std::uint64_t seed) {
     s.angular_velocity.emplace_back(any_finite(), 5e-324, -1e308);
     s.radius.push_back(std::ldexp(static_cast<double>(bits() >> 11), -53) + 1e-3);
     s.level.push_back(static_cast<std::int32_t>(bits() % 41) - 20);
+    s.force.emplace_back(any_finite(), -2.5, any_finite());
+    s.torque.emplace_back(1e-300, any_finite(), any_finite());
+    s.material.push_back(static_cast<std::uint16_t>(bits()));
+    s.coordination.push_back(static_cast<std::uint32_t>(bits() % 13));
   }
   s.id.front() = std::numeric_limits<std::uint32_t>::max();
   s.level.back() = std::numeric_limits<std::int32_t>::min();
@@ -815,7 +824,7 @@ ParticleSnapshot random_snapshot(std::size_t n, std::uint64_t seed) {
 TEST_F(OutputFiles, ParticlesVtpReadsBackExactly) {
   const ParticleSnapshot s = random_snapshot(7, 99);
   const fs::path path = dir_ / "particles_000001.vtp";
-  write_particles_vtp(path, s);
+  write_particles_vtp(path, s, VtkFormat::ascii);
   EXPECT_EQ(files(), std::vector<std::string>{"particles_000001.vtp"});
   XmlElement root;
   ASSERT_NO_THROW(root = read_xml(path));
@@ -827,10 +836,12 @@ TEST_F(OutputFiles, ParticlesVtpReadsBackExactly) {
   const XmlElement& point_data = piece.child("PointData");
   std::vector<DataArray> arrays;
   for (const XmlElement& e : point_data.children) arrays.push_back(read_array(e));
-  ASSERT_EQ(arrays.size(), 5u);
-  const std::vector<std::string> names = {"id", "radius", "velocity", "angular_velocity", "level"};
-  const std::vector<std::string> types = {"UInt32", "Float64", "Float64", "Float64", "Int32"};
-  const std::vector<int> components = {1, 1, 3, 3, 1};
+  ASSERT_EQ(arrays.size(), 9u);
+  const std::vector<std::string> names = {"id",    "radius", "velocity", "angular_velocity", "level",
+                                          "force", "torque", "material", "coordination"};
+  const std::vector<std::string> types = {"UInt32",  "Float64", "Float64", "Float64", "Int32",
+                                          "Float64", "Float64", "UInt16",  "UInt32"};
+  const std::vector<int> components = {1, 1, 3, 3, 1, 3, 3, 1, 1};
   for (std::size_t a = 0; a < arrays.size(); ++a) {
     EXPECT_EQ(arrays[a].name, names[a]);
     EXPECT_EQ(arrays[a].type, types[a]) << names[a];
@@ -841,6 +852,10 @@ TEST_F(OutputFiles, ParticlesVtpReadsBackExactly) {
   expect_doubles(arrays[2], flatten(s.velocity));
   expect_doubles(arrays[3], flatten(s.angular_velocity));
   expect_integers(arrays[4], s.level);
+  expect_doubles(arrays[5], flatten(s.force));
+  expect_doubles(arrays[6], flatten(s.torque));
+  expect_integers(arrays[7], s.material);
+  expect_integers(arrays[8], s.coordination);
 
   const DataArray points = read_array(piece.child("Points").child("DataArray"));
   EXPECT_EQ(points.type, "Float64");
@@ -861,15 +876,23 @@ TEST_F(OutputFiles, ParticlesVtpWritesZerosForMissingSpinAndLevelAndHandlesNoPar
   ParticleSnapshot s = random_snapshot(3, 7);
   s.angular_velocity.clear();
   s.level.clear();
+  s.force.clear();
+  s.torque.clear();
+  s.material.clear();
+  s.coordination.clear();
   const fs::path path = dir_ / "p.vtp";
-  write_particles_vtp(path, s);
+  write_particles_vtp(path, s, VtkFormat::ascii);
   const XmlElement root = read_xml(path);
   const XmlElement& point_data = piece_of(root).child("PointData");
-  ASSERT_EQ(point_data.children.size(), 5u);
+  ASSERT_EQ(point_data.children.size(), 9u);
   expect_doubles(read_array(point_data.children[3]), std::vector<double>(9, 0.0));
   expect_integers(read_array(point_data.children[4]), std::vector<std::int32_t>(3, 0));
+  expect_doubles(read_array(point_data.children[5]), std::vector<double>(9, 0.0));
+  expect_doubles(read_array(point_data.children[6]), std::vector<double>(9, 0.0));
+  expect_integers(read_array(point_data.children[7]), std::vector<std::uint16_t>(3, 0));
+  expect_integers(read_array(point_data.children[8]), std::vector<std::uint32_t>(3, 0));
 
-  write_particles_vtp(path, ParticleSnapshot{});
+  write_particles_vtp(path, ParticleSnapshot{}, VtkFormat::ascii);
   const XmlElement empty = read_xml(path);
   EXPECT_EQ(piece_of(empty).attribute("NumberOfPoints"), "0");
   for (const XmlElement& e : piece_of(empty).child("PointData").children) EXPECT_TRUE(read_array(e).values.empty());
@@ -882,7 +905,68 @@ TEST_F(OutputFiles, ParticlesVtpRejectsArraysOfDifferentSizes) {
   s = random_snapshot(3, 1);
   s.level.push_back(0);
   EXPECT_THROW(write_particles_vtp(dir_ / "p.vtp", s), std::invalid_argument);
+  s = random_snapshot(3, 1);
+  s.coordination.pop_back();
+  EXPECT_THROW(write_particles_vtp(dir_ / "p.vtp", s), std::invalid_argument);
   EXPECT_TRUE(files().empty());
+}
+
+TEST_F(OutputFiles, ParticlesVtpNamesTheMaterialsAsFieldData) {
+  ParticleSnapshot s = random_snapshot(2, 5);
+  s.material_names = {"steel", "a&b"};
+  const fs::path path = dir_ / "p.vtp";
+  write_particles_vtp(path, s, VtkFormat::ascii);
+  const XmlElement root = read_xml(path);
+  const XmlElement& names = root.child("PolyData").child("FieldData").child("DataArray");
+  EXPECT_EQ(names.attribute("type"), "String");
+  EXPECT_EQ(names.attribute("Name"), "material_names");
+  EXPECT_EQ(names.attribute("NumberOfTuples"), "2");
+  // Each string's bytes as numbers, then a 0.
+  std::string decoded;
+  for (const std::string& token : whitespace_tokens(names.text)) decoded += static_cast<char>(std::stoi(token));
+  EXPECT_EQ(decoded, std::string("steel\0a&b\0", 10));
+}
+
+TEST_F(OutputFiles, ContactsVtpHasALinePerContactWithItsForces) {
+  ContactSnapshot c;
+  c.from = {{0, 0, 0}, {1, 2, 3}};
+  c.to = {{0.5, 0, 0}, {1, 2, 2.5}};
+  c.id_a = {3, 7};
+  c.id_b = {9, -1};
+  c.wall = {-1, 2};
+  c.normal_force = {1.5, 1.0 / 3.0};
+  c.normal_force_vector = {{-1.5, 0, 0}, {0, 0, 1.0 / 3.0}};
+  c.tangential_force_vector = {{0, 0.25, 0}, {1e-300, 0, 0}};
+  c.overlap = {1e-4, 2e-5};
+  const fs::path path = dir_ / "contacts.vtp";
+  write_contacts_vtp(path, c, VtkFormat::ascii);
+  const XmlElement root = read_xml(path);
+  const XmlElement& piece = piece_of(root);
+  EXPECT_EQ(piece.attribute("NumberOfPoints"), "4");
+  EXPECT_EQ(piece.attribute("NumberOfLines"), "2");
+  EXPECT_EQ(piece.attribute("NumberOfVerts"), "0");
+  std::vector<DataArray> arrays;
+  for (const XmlElement& e : piece.child("CellData").children) arrays.push_back(read_array(e));
+  ASSERT_EQ(arrays.size(), 7u);
+  const std::vector<std::string> names = {"id_a", "id_b", "wall", "normal_force", "normal_force_vector",
+                                          "tangential_force_vector", "overlap"};
+  for (std::size_t a = 0; a < arrays.size(); ++a) EXPECT_EQ(arrays[a].name, names[a]);
+  expect_integers(arrays[0], c.id_a);
+  expect_integers(arrays[1], c.id_b);
+  expect_integers(arrays[2], c.wall);
+  expect_doubles(arrays[3], c.normal_force);
+  expect_doubles(arrays[4], flatten(c.normal_force_vector));
+  expect_doubles(arrays[5], flatten(c.tangential_force_vector));
+  expect_doubles(arrays[6], c.overlap);
+  expect_doubles(read_array(piece.child("Points").child("DataArray")),
+                 flatten({c.from[0], c.to[0], c.from[1], c.to[1]}));
+  const XmlElement& lines = piece.child("Lines");
+  ASSERT_EQ(lines.children.size(), 2u);
+  expect_integers(read_array(lines.children[0]), std::vector<std::int64_t>{0, 1, 2, 3});
+  expect_integers(read_array(lines.children[1]), std::vector<std::int64_t>{2, 4});
+
+  c.overlap.pop_back();
+  EXPECT_THROW(write_contacts_vtp(path, c), std::invalid_argument);
 }
 
 Eigen::Matrix3d test_rotation() {
@@ -902,7 +986,7 @@ TEST_F(OutputFiles, WallsVtpHasEveryTriangleWithValidIndicesAndItsWall) {
   ASSERT_EQ(g.triangles.size(), 2u + 12u + 32u);
   ASSERT_EQ(g.points.size(), 4u + 8u + 32u);
   const fs::path path = dir_ / "walls.vtp";
-  write_walls_vtp(path, g);
+  write_walls_vtp(path, g, VtkFormat::ascii);
   const XmlElement root = read_xml(path);
   const XmlElement& piece = piece_of(root);
   const std::size_t point_count = std::stoul(piece.attribute("NumberOfPoints"));

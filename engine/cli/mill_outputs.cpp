@@ -105,7 +105,7 @@ void MillOutputs::write_spectra(const World& world) const {
     if (!quiet_) std::printf("collision spectra: booked only with velocity Verlet\n");
     return;
   }
-  spectra->write_csv(out_ / "spectra.csv", world.time());  // rates over the run from t = 0 (resumed too)
+  write_spectra_csv(out_ / "spectra.csv", *spectra, world.time());  // rates over the run from t = 0 (resumed too)
   run_plot_script("dem run", "plot_spectra.py", out_ / "spectra.csv", quiet_);
 }
 

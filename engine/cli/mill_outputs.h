@@ -6,7 +6,8 @@
 #include <optional>
 
 #include "engine/mill_monitor.h"
-#include "engine/output.h"
+#include "engine/csv_writer.h"
+#include "engine/json_writer.h"
 
 namespace dem::cli {
 

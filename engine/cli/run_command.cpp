@@ -19,7 +19,11 @@
 #include <sstream>
 
 #include "engine/input_error.h"
-#include "engine/output.h"
+#include "engine/atomic_file.h"
+#include "engine/csv_writer.h"
+#include "engine/json_writer.h"
+#include "engine/vtk_snapshots.h"
+#include "engine/vtk_writer.h"
 #include "engine/particle_csv.h"
 #include "engine/world.h"
 
@@ -78,20 +82,6 @@ std::vector<double> wall_row(const World& world) {
     for (int k = 0; k < 3; ++k) row.push_back(load.torque[k]);
   }
   return row;
-}
-
-ParticleSnapshot snapshot_of(const World& world) {
-  const State& s = world.state();
-  ParticleSnapshot snap;
-  for (std::size_t p = 0; p < s.size(); ++p) {  // slots are in id order
-    snap.id.push_back(s.id[p]);
-    snap.position.push_back(s.position[p]);
-    snap.velocity.push_back(s.velocity[p]);
-    snap.angular_velocity.push_back(s.angular_velocity[p]);
-    snap.radius.push_back(s.radius[p]);
-    snap.level.push_back(s.level[p]);
-  }
-  return snap;
 }
 
 /// Display geometry of the walls at the world's current time; infinite things get a finite extent.
@@ -257,7 +247,8 @@ int run_command(const RunOptions& options) {
   // checkpoint's time and drops anything later (written after the checkpoint by the run that died).
   const bool resuming = !options.resume.empty();
   if (!resuming)
-    for (const char* file : {"series.csv", "walls.csv", "trajectories.csv", "particles.pvd", "walls.pvd"})
+    for (const char* file :
+         {"series.csv", "walls.csv", "trajectories.csv", "particles.pvd", "walls.pvd", "contacts.pvd"})
       std::filesystem::remove(out / file);
   SeriesWriter series(out / "series.csv", series_columns());
   std::optional<SeriesWriter> trajectories;
@@ -265,12 +256,16 @@ int run_command(const RunOptions& options) {
   SeriesWriter walls(out / "walls.csv", wall_columns(wall_names));
   PvdIndex particles_pvd(out / "particles.pvd");
   PvdIndex walls_pvd(out / "walls.pvd");
+  std::optional<PvdIndex> contacts_pvd;
+  if (scene.output.contacts) contacts_pvd.emplace(out / "contacts.pvd");
+  const VtkFormat vtk_format = scene.output.vtk_ascii ? VtkFormat::ascii : VtkFormat::binary;
   if (resuming) {
     series.truncate_after(world.time());
     walls.truncate_after(world.time());
     if (trajectories) trajectories->truncate_after(world.time());
     particles_pvd.truncate_after(world.time());
     walls_pvd.truncate_after(world.time());
+    if (contacts_pvd) contacts_pvd->truncate_after(world.time());
   }
 
   const Real interval = scene.output.interval;
@@ -296,12 +291,17 @@ int run_command(const RunOptions& options) {
     }
     if (snapshots.due(t) || (snapshots.enabled() && final_row)) {
       const std::string name = "particles_" + std::to_string(snapshot_count) + ".vtp";
-      write_particles_vtp(out / name, snapshot_of(world));
+      write_particles_vtp(out / name, particle_snapshot(world), vtk_format);
       particles_pvd.add(t, name);
       const std::string wall_name = "walls_" + std::to_string(snapshot_count) + ".vtp";
       if (world.walls().count() > 0) {
-        write_walls_vtp(out / wall_name, wall_geometry(world));
+        write_walls_vtp(out / wall_name, wall_geometry(world), vtk_format);
         walls_pvd.add(t, wall_name);
+      }
+      if (contacts_pvd) {
+        const std::string contact_name = "contacts_" + std::to_string(snapshot_count) + ".vtp";
+        write_contacts_vtp(out / contact_name, contact_snapshot(world), vtk_format);
+        contacts_pvd->add(t, contact_name);
       }
       ++snapshot_count;
       snapshots.done_at(t);

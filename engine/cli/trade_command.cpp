@@ -49,7 +49,7 @@
 #include "engine/cli/plot_script.h"
 #include "engine/cli/energy_audit.h"
 #include "engine/input_error.h"
-#include "engine/output.h"
+#include "engine/atomic_file.h"
 #include "engine/world.h"
 
 namespace dem::cli {
