@@ -1,0 +1,34 @@
+"""Shared setup of the dem module's tests: the built package (PYTHONPATH=<build>/python, set by ctest),
+the built `dem` program (DEM_PROGRAM) and the source tree (DEM_SOURCE_DIR)."""
+import json
+import os
+import pathlib
+import subprocess
+
+import pytest
+
+SOURCE_DIR = pathlib.Path(os.environ.get("DEM_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
+SCENES = SOURCE_DIR / "scenes"
+
+# Without numpy or the built module the tests cannot run at all: skip them all, saying why.
+np = pytest.importorskip("numpy", reason="numpy is absent: apt-get install python3-numpy (scripts/install_deps.sh)")
+dem = pytest.importorskip(
+    "dem", reason="the dem module is not built or not on PYTHONPATH (needs pybind11-dev; PYTHONPATH=<build>/python)")
+
+
+@pytest.fixture
+def dem_program():
+    program = os.environ.get("DEM_PROGRAM")
+    if not program:
+        pytest.fail("DEM_PROGRAM is not set: run the tests through ctest, or set it to the built dem program")
+    return program
+
+
+def dem_run(program, scene, out, until, overrides=()):
+    """Runs `dem run` and returns its summary.json."""
+    args = [program, "run", str(scene), "--until", repr(until), "--quiet", "--out", str(out)]
+    for o in overrides:
+        args += ["--set", o]
+    subprocess.run(args, check=True, cwd=out.parent, stdout=subprocess.DEVNULL)
+    with open(out / "summary.json") as f:
+        return json.load(f)
