@@ -10,10 +10,6 @@ import pytest
 SOURCE_DIR = pathlib.Path(os.environ.get("DEM_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
 SCENES = SOURCE_DIR / "scenes"
 
-# Without numpy or the built module the tests cannot run at all: skip them all, saying why.
-np = pytest.importorskip("numpy", reason="numpy is absent: apt-get install python3-numpy (scripts/install_deps.sh)")
-dem = pytest.importorskip(
-    "dem", reason="the dem module is not built or not on PYTHONPATH (needs pybind11-dev; PYTHONPATH=<build>/python)")
 
 
 @pytest.fixture
