@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# CI's performance gate: builds the program in Release (build-count; tests, benchmarks and the Python module off: the
-# module makes the engine libraries position independent, which changes their instruction counts) and runs
+# CI's performance gate: builds the program in Release (build-count; tests, benchmarks and the Python module off:
+# with the module the engine libraries are position independent, which is not what the baseline counts) and runs
 # bench/instructions, which fails when a workload takes more than 3% more instructions per
 # particle-step than bench/baselines/instructions.json (valgrind counts: the same on a busy machine).
 # Then checks the gate itself: against a baseline 10% below this build's own figure it must fail.
