@@ -8,7 +8,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build=build-count
 bash scripts/install_deps.sh
-cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDEM_BUILD_TESTS=OFF -DDEM_BUILD_BENCH=OFF -DDEM_BUILD_PYTHON=OFF >/dev/null
+cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDEM_BUILD_TESTS=OFF -DDEM_BUILD_BENCH=OFF \
+  -DDEM_BUILD_PYTHON=OFF >/dev/null
 cmake --build "$build" -j "$(nproc)" --target dem
 bench/instructions --build "$build"
 # The gate must be able to fail: this build's dense bed measured into a scratch baseline, lowered 10%.

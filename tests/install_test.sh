@@ -51,7 +51,8 @@ done
 # The Python module, when the build made it: installed for Debian's python3, and importable from there.
 if [ -f "$build/python/dem/__init__.py" ]; then
   site=$(ls -d "$prefix"/lib/python3.*/dist-packages 2> /dev/null) || fail "the Python module is not installed"
-  (cd "$work" && PYTHONPATH=$site /usr/bin/python3 -c "import dem, sys; sys.exit(not dem.__file__.startswith('$site'))") ||
+  (cd "$work" && PYTHONPATH=$site /usr/bin/python3 -c "import dem, sys; sys.exit(not dem.__file__.startswith(sys.argv[1]))" \
+    "$site") ||
     fail "the installed Python module does not import from $site"
 fi
 

@@ -16,7 +16,8 @@ if os.environ.get("DEM_PYTHON_REQUIRED"):
 else:
     np = pytest.importorskip("numpy", reason="numpy is absent: apt-get install python3-numpy (scripts/install_deps.sh)")
     dem = pytest.importorskip(
-        "dem", reason="the dem module is not built or not on PYTHONPATH (needs pybind11-dev; PYTHONPATH=<build>/python)")
+        "dem", reason="the dem module is not built or not on PYTHONPATH "
+        "(needs pybind11-dev; PYTHONPATH=<build>/python)")
 
 FREE_FLIGHT = """
 [scene]
