@@ -7,10 +7,12 @@ set -euo pipefail
 # libbenchmark-tools, python3-numpy and python3-scipy: bench/regress and its tests (compare.py);
 # valgrind: bench/instructions, CI's instruction-count gate; python3-matplotlib: the plots dem run and
 # dem trade draw and the bench/ plotting scripts; python3-vtk9: tests/vtk_reader_test.py reads the VTK
-# snapshots with VTK's own reader.
+# snapshots with VTK's own reader; pybind11-dev and python3-dev: the Python module dem (python/),
+# python3-pytest: its tests.
 packages=(g++ cmake ninja-build git
   libeigen3-dev libtbb-dev libnanoflann-dev libgtest-dev libbenchmark-dev libbenchmark-tools
-  python3-numpy python3-scipy python3-matplotlib python3-vtk9 libtomlplusplus-dev libcli11-dev valgrind)
+  python3-numpy python3-scipy python3-matplotlib python3-vtk9 libtomlplusplus-dev libcli11-dev valgrind
+  pybind11-dev python3-dev python3-pytest)
 if [ $# -gt 0 ]; then packages=("$@"); fi
 missing=()
 for p in "${packages[@]}"; do

@@ -1,7 +1,8 @@
 #!/bin/sh
 # Installs the built project into a temporary prefix and uses only what was installed:
 #   - the layout: bin/dem, headers under include/dem/ (nothing at include/engine), the CMake package,
-#     the scenes with their data files and the plotting scripts under share/dem/;
+#     the scenes with their data files and the plotting scripts under share/dem/, and the Python module
+#     (when built) under lib/python3.X/dist-packages/, importable from there;
 #   - the installed `dem`: --help, --version, `check` of every installed scene, and a short run of the
 #     installed 2D mill that draws spectra.png with the installed plotting script; a copy of the
 #     prefix elsewhere finds its own share/dem (from the executable's path, not a compiled-in one)
@@ -47,6 +48,13 @@ for d in engine broadphase; do
   [ ! -e "$prefix/include/$d" ] || fail "include/$d installed: headers belong under include/dem"
 done
 [ ! -e "$prefix/include/dem/engine/cli" ] || fail "the CLI's headers are private"
+# The Python module, when the build made it: installed for Debian's python3, and importable from there.
+if [ -f "$build/python/dem/__init__.py" ]; then
+  site=$(ls -d "$prefix"/lib/python3.*/dist-packages 2> /dev/null) || fail "the Python module is not installed"
+  (cd "$work" && PYTHONPATH=$site /usr/bin/python3 -c "import dem, sys; sys.exit(not dem.__file__.startswith(sys.argv[1]))" \
+    "$site") ||
+    fail "the installed Python module does not import from $site"
+fi
 
 # ---- the installed program -------------------------------------------------------------------------
 dem=$prefix/bin/dem
