@@ -9,7 +9,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <memory>
 #include <sstream>
 
 #include <toml++/toml.h>
@@ -20,7 +19,6 @@
 #include "engine/scene_validation.h"
 #include "engine/toml_reader.h"
 #include "engine/triangle_mesh.h"
-#include "engine/world.h"
 
 namespace dem {
 namespace {
@@ -108,16 +106,6 @@ Scene load_scene(const std::string& path, const std::vector<std::string>& overri
   std::stringstream text;
   text << in.rdbuf();
   return load_scene_text(text.str(), path, std::filesystem::path(path).parent_path().string(), overrides);
-}
-
-// Declared with the World (the embedding API); defined here, on the loader side, so that the core
-// never calls the loader.
-std::unique_ptr<World> World::load(const std::string& scene_path, const std::vector<std::string>& overrides,
-                                   Scene* scene) {
-  Scene loaded = load_scene(scene_path, overrides);
-  auto world = std::make_unique<World>(loaded.world);
-  if (scene != nullptr) *scene = std::move(loaded);
-  return world;
 }
 
 }  // namespace dem

@@ -22,7 +22,7 @@
 
 namespace dem {
 
-// World::load is defined in scene_loader.cpp: the core never calls the loader.
+// World::load is defined in scene_world.cpp: the core never calls the loader.
 
 StepStatus World::run_until(Real t, const SyncCallback& on_sync) {
   while (time() < t) {
