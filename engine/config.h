@@ -95,9 +95,9 @@ struct WallConfig {
   Real length = std::numeric_limits<Real>::infinity();  // cylinder, prism: length centred on `point` [m]
   std::vector<Vec3> profile;              // prism: corners of its convex cross-section at t = 0, in the
                                           // plane through `point` perpendicular to `axis` [m]
-  std::string file;                       // mesh: STL file (binary or ASCII); read when `mesh` is empty
+  std::string file;                       // mesh: the STL file the loader read `mesh` from (for messages)
   Real scale = 1;                         // mesh: metres per STL unit (0.001 for a file in mm) [m]
-  std::shared_ptr<const TriangleMesh> mesh;  // mesh: triangles at t = 0 relative to `point` [m]
+  std::shared_ptr<const TriangleMesh> mesh;  // mesh: triangles at t = 0 relative to `point` [m]; required
   Vec3 velocity = Vec3::Zero();           // [m/s]
   Vec3 angular_velocity = Vec3::Zero();   // [rad/s]
   Vec3 rotation_center = Vec3::Zero();    // [m], used when use_rotation_center, else `point`

@@ -6,8 +6,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "engine/stl_reader.h"
-
 namespace dem {
 
 namespace {
@@ -27,8 +25,8 @@ Walls::Walls(const std::vector<WallConfig>& walls, const MaterialTable& material
     if (w.kind == WallKind::plane) w.normal.normalize();
     if (w.kind == WallKind::cylinder || w.kind == WallKind::prism) w.axis.normalize();
     if (w.kind == WallKind::mesh) {
-      if (!w.mesh && w.file.empty()) throw std::invalid_argument("mesh wall '" + w.name + "' needs a file or a mesh");
-      if (!w.mesh) w.mesh = std::make_shared<const TriangleMesh>(read_stl_mesh(w.file, w.scale));
+      // The core reads no files: the loader (or a program embedding the engine) builds the mesh.
+      if (!w.mesh) throw std::invalid_argument("mesh wall '" + w.name + "' needs a mesh");
       if (w.mesh->feature_count() >= max_wall_features)
         throw std::invalid_argument("mesh wall '" + w.name + "' has " + std::to_string(w.mesh->feature_count()) +
                                     " faces, edges and vertices; at most " + std::to_string(max_wall_features - 1) +

@@ -35,9 +35,10 @@ struct WallLoad {
 class Walls {
  public:
   Walls() = default;
-  /// A mesh wall without `mesh` reads its `file` (scaled by `scale`): InputError on a bad file.
-  /// Throws std::invalid_argument for more than max_walls walls or a mesh of max_wall_features
-  /// features or more (types.h: they must fit a contact key).
+  /// Builds from the configs' data only: a mesh wall needs its `mesh` (the scene loader reads STL
+  /// files into it; `file` is not opened here). Throws std::invalid_argument for a mesh wall without
+  /// a mesh, more than max_walls walls or a mesh of max_wall_features features or more (types.h:
+  /// they must fit a contact key).
   Walls(const std::vector<WallConfig>& walls, const MaterialTable& materials);
 
   /// Throws std::invalid_argument naming the problem when a prism's profile is not a convex polygon.

@@ -1,4 +1,4 @@
-// The World's embedding API (docs/design.md, Embedding): building from a scene file, running with a
+// The World's embedding API (docs/design.md, Embedding): running with a
 // callback at sync times, reading particles by stable id and contact forces, and feeding and
 // discharging particles between sync intervals.
 // A population change, top to bottom:
@@ -18,18 +18,11 @@
 
 #include "engine/doubling_work.h"
 #include "engine/materials.h"
-#include "engine/scene_loader.h"
 #include "engine/world.h"
 
 namespace dem {
 
-std::unique_ptr<World> World::load(const std::string& scene_path, const std::vector<std::string>& overrides,
-                                   Scene* scene) {
-  Scene loaded = load_scene(scene_path, overrides);
-  auto world = std::make_unique<World>(loaded.world);
-  if (scene != nullptr) *scene = std::move(loaded);
-  return world;
-}
+// World::load is defined in scene_world.cpp: the core never calls the loader.
 
 StepStatus World::run_until(Real t, const SyncCallback& on_sync) {
   while (time() < t) {

@@ -20,16 +20,8 @@ stage() {
   echo "== $name: $((SECONDS - start)) s"
 }
 
-layering() {
-  # Dependencies point one way: broadphase/ never includes engine/.
-  if grep -rn '#include *"engine/' broadphase; then
-    echo "broadphase/ must not include engine/ headers" >&2
-    return 1
-  fi
-}
-
 stage "install dependencies" bash scripts/install_deps.sh
-stage "layering check" layering
+stage "layering check" bash scripts/layering.sh
 stage "configure" cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDEM_WERROR=ON -DDEM_VALIDATE=ON
 stage "build" cmake --build "$build" -j "$jobs"
 stage "tests" ctest --test-dir "$build" -LE long --output-on-failure -j "$jobs" --timeout 300

@@ -3,37 +3,26 @@
 // with exit code 2.
 #include <gtest/gtest.h>
 
-#include <cstdlib>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
-#include <csignal>
-#include <cstdio>
 #include <sys/wait.h>
 #include <unistd.h>
+
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "tests/cli_support.h"
 
 namespace {
 
 namespace fs = std::filesystem;
+using dem::test::cli::read_text;
 
-std::string read(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string hash_of(const fs::path& summary) {
-  const std::string text = read(summary);
-  const auto at = text.find("\"state_hash\": \"");
-  return at == std::string::npos ? "" : text.substr(at + 15, 16);
-}
+std::string hash_of(const fs::path& summary) { return dem::test::cli::summary_string(summary, "state_hash"); }
 
 int run(const std::string& args, const std::string& scene = "tests/scenes/settle_small.toml") {
-  const std::string command = std::string(DEM_PROGRAM) + " run " + DEM_SOURCE_DIR + "/" + scene + " --quiet " + args +
-                              " 2>/dev/null";
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return dem::test::cli::run_dem_status("run " + std::string(DEM_SOURCE_DIR) + "/" + scene + " --quiet " + args +
+                                        " 2>/dev/null");
 }
 
 TEST(CliResume, ResumedRunEqualsStraightRunBitForBit) {
@@ -49,15 +38,15 @@ TEST(CliResume, ResumedRunEqualsStraightRunBitForBit) {
 
   EXPECT_EQ(hash_of(base / "split" / "summary.json"), hash_of(base / "straight" / "summary.json"));
   EXPECT_FALSE(hash_of(base / "straight" / "summary.json").empty());
-  EXPECT_EQ(read(base / "split" / "series.csv"), read(base / "straight" / "series.csv"));
-  EXPECT_EQ(read(base / "split" / "walls.csv"), read(base / "straight" / "walls.csv"));
+  EXPECT_EQ(read_text(base / "split" / "series.csv"), read_text(base / "straight" / "series.csv"));
+  EXPECT_EQ(read_text(base / "split" / "walls.csv"), read_text(base / "straight" / "walls.csv"));
 
   // Other physics: refused as bad input, and the outputs stay as they were.
-  const std::string series_before = read(base / "split" / "series.csv");
+  const std::string series_before = read_text(base / "split" / "series.csv");
   EXPECT_EQ(run("--until 0.4 --out " + (base / "split").string() + " --resume " + checkpoint.string() +
                 " --set contacts[0].normal_stiffness=2e5"),
             2);
-  EXPECT_EQ(read(base / "split" / "series.csv"), series_before);
+  EXPECT_EQ(read_text(base / "split" / "series.csv"), series_before);
   fs::remove_all(base);
 }
 
@@ -75,11 +64,11 @@ TEST(CliResume, AResumedMillContinuesItsRevolutionsAndSpectra) {
   ASSERT_FALSE(checkpoint.empty());
   ASSERT_EQ(run(whole + (base / "split").string() + " --resume " + checkpoint.string(), mill), 0);
   for (const char* file : {"mill.csv", "mill_revolutions.csv", "spectra.csv", "series.csv"})
-    EXPECT_TRUE(read(base / "split" / file) == read(base / "straight" / file)) << file << " differs";
-  const std::string summary = read(base / "split" / "summary.json");
+    EXPECT_TRUE(read_text(base / "split" / file) == read_text(base / "straight" / file)) << file << " differs";
+  const std::string summary = read_text(base / "split" / "summary.json");
   const auto mean = [](const std::string& text) { return text.substr(text.find("\"mean_power_draw\"")); };
   ASSERT_NE(summary.find("\"mean_power_draw\""), std::string::npos);
-  EXPECT_EQ(mean(summary).substr(0, 40), mean(read(base / "straight" / "summary.json")).substr(0, 40));
+  EXPECT_EQ(mean(summary).substr(0, 40), mean(read_text(base / "straight" / "summary.json")).substr(0, 40));
   fs::remove_all(base);
 }
 
@@ -116,11 +105,11 @@ TEST(CliResume, RunKilledMidwayResumesFromItsLastCheckpointToTheSameHash) {
   for (const auto& e : fs::directory_iterator(killed))
     if (e.path().extension() == ".bin") checkpoint = e.path();
   // Every output file is whole: the series parses to the end of its last line.
-  const std::string series = read(killed / "series.csv");
+  const std::string series = read_text(killed / "series.csv");
   ASSERT_FALSE(series.empty());
   ASSERT_EQ(run("--until 0.35 --out " + killed.string() + " --resume " + checkpoint.string()), 0);
   EXPECT_EQ(hash_of(killed / "summary.json"), hash_of(base / "straight" / "summary.json"));
-  EXPECT_EQ(read(killed / "series.csv"), read(base / "straight" / "series.csv"));
+  EXPECT_EQ(read_text(killed / "series.csv"), read_text(base / "straight" / "series.csv"));
   fs::remove_all(base);
 }
 

@@ -16,38 +16,17 @@
 #include "engine/materials.h"
 #include "engine/particle_csv.h"
 #include "engine/world.h"
+#include "tests/cli_support.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-class TempDir {
- public:
-  explicit TempDir(const std::string& name)
-      : path_(fs::temp_directory_path() / ("dem_settle_" + name + "_" + std::to_string(::getpid()))) {
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  const fs::path& path() const { return path_; }
+using dem::test::cli::read_text;
+using dem::test::cli::TempDir;
+using dem::test::cli::write_text;
 
- private:
-  fs::path path_;
-};
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-void write_text(const fs::path& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
-
-int run_dem(const std::string& arguments) {
-  const std::string command = std::string(DEM_PROGRAM) + " " + arguments + " --quiet > /dev/null";
-  return std::system(command.c_str());
-}
+int run_dem(const std::string& arguments) { return dem::test::cli::run_dem_status(arguments + " --quiet > /dev/null"); }
 
 std::string number(double v) {
   char text[32];

@@ -23,12 +23,7 @@
 #include <string>
 #include <vector>
 
-#ifndef DEM_PROGRAM
-#error "DEM_PROGRAM (path of the dem executable) must be defined by tests/CMakeLists.txt"
-#endif
-#ifndef DEM_SOURCE_DIR
-#error "DEM_SOURCE_DIR (the repository root) must be defined by tests/CMakeLists.txt"
-#endif
+#include "tests/cli_support.h"
 
 namespace {
 
@@ -37,71 +32,15 @@ namespace fs = std::filesystem;
 const fs::path source_dir{DEM_SOURCE_DIR};
 const fs::path bad_dir = source_dir / "tests" / "scenes" / "bad";
 
-// ---------------------------------------------------------------------------------------------------
-// Running the program
+// Running the program: tests/cli_support.h
 
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) {
-    if (c == '\'') {
-      q.append("'\\''");
-    } else {
-      q.push_back(c);
-    }
-  }
-  q.push_back('\'');
-  return q;
-}
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-struct Result {
-  int code = -1;  // exit code; -1 when the program did not exit normally (a crash)
-  std::string out, err;
-};
-
-/// A fresh folder per test, removed afterwards.
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string name = std::string(info->test_suite_name()) + "_" + info->name();
-    std::replace_if(name.begin(), name.end(), [](char c) { return !std::isalnum(static_cast<unsigned char>(c)); }, '_');
-    path_ = fs::temp_directory_path() / ("dem_cli_test_" + std::to_string(::getpid()) + "_" + name);
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-/// Runs `dem` with `args` (each quoted), capturing stdout and stderr in files under `scratch`.
-Result run_dem(const std::vector<std::string>& args, const fs::path& scratch) {
-  std::string command = quote(DEM_PROGRAM);
-  for (const std::string& a : args) command.append(" ").append(quote(a));  // (no operator+ chains: g++ 12 -Wrestrict)
-  const fs::path out = scratch / "stdout.txt", err = scratch / "stderr.txt";
-  command.append(" > ").append(quote(out.string())).append(" 2> ").append(quote(err.string()));
-  const int status = std::system(command.c_str());
-  Result r;
-  if (status != -1 && WIFEXITED(status)) r.code = WEXITSTATUS(status);
-  r.out = read_text(out);
-  r.err = read_text(err);
-  return r;
-}
+using dem::test::cli::read_text;
+using dem::test::cli::Result;
+using dem::test::cli::run_dem;
+using dem::test::cli::TempDir;
 
 // ---------------------------------------------------------------------------------------------------
-// Reading the outputs: CSV, a tiny JSON reader, a tiny XML attribute scan
+// Reading the outputs: CSV, JSON (tests/cli_support.h), a tiny XML attribute scan
 
 struct Csv {
   std::vector<std::string> columns;
@@ -137,121 +76,8 @@ Csv read_csv(const fs::path& path) {
   return csv;
 }
 
-struct Json {
-  enum class Kind { null, boolean, number, string, array, object } kind = Kind::null;
-  bool boolean = false;
-  double number = 0;
-  std::string string;
-  std::vector<Json> array;
-  // An object's members: keys[i] names values[i] (not a vector of pairs: clang with libstdc++ wants
-  // pair<string, Json> complete inside Json).
-  std::vector<std::string> keys;
-  std::vector<Json> values;
-
-  bool has(const std::string& key) const { return std::find(keys.begin(), keys.end(), key) != keys.end(); }
-  const Json& operator[](const std::string& key) const {
-    for (std::size_t i = 0; i < keys.size(); ++i)
-      if (keys[i] == key) return values[i];
-    static const Json missing;
-    return missing;
-  }
-};
-
-/// A strict reader for the JSON the program writes; `ok` turns false on any syntax error.
-class JsonReader {
- public:
-  explicit JsonReader(std::string text) : text_(std::move(text)) {}
-
-  Json parse() {
-    Json v = value();
-    space();
-    if (at_ != text_.size()) ok = false;
-    return v;
-  }
-  bool ok = true;
-
- private:
-  void space() {
-    while (at_ < text_.size() && std::isspace(static_cast<unsigned char>(text_[at_]))) ++at_;
-  }
-  bool eat(char c) {
-    space();
-    if (at_ < text_.size() && text_[at_] == c) return ++at_, true;
-    return false;
-  }
-  bool word(const char* w) {
-    const std::size_t n = std::char_traits<char>::length(w);
-    if (text_.compare(at_, n, w) != 0) return false;
-    at_ += n;
-    return true;
-  }
-  std::string string_literal() {
-    std::string s;
-    if (!eat('"')) return ok = false, s;
-    while (at_ < text_.size() && text_[at_] != '"') {
-      char c = text_[at_++];
-      if (c == '\\' && at_ < text_.size()) {
-        const char e = text_[at_++];
-        c = e == 'n' ? '\n' : e == 't' ? '\t' : e == 'r' ? '\r' : e;
-        if (e == 'u') at_ += 4, c = '?';
-      }
-      s += c;
-    }
-    if (at_ >= text_.size()) return ok = false, s;
-    ++at_;
-    return s;
-  }
-  Json value() {
-    Json v;
-    space();
-    if (at_ >= text_.size()) return ok = false, v;
-    const char c = text_[at_];
-    if (c == '{') {
-      v.kind = Json::Kind::object;
-      ++at_;
-      if (eat('}')) return v;
-      do {
-        std::string key = string_literal();
-        if (!eat(':')) ok = false;
-        v.keys.push_back(std::move(key));
-        v.values.push_back(value());
-      } while (ok && eat(','));
-      if (!eat('}')) ok = false;
-    } else if (c == '[') {
-      v.kind = Json::Kind::array;
-      ++at_;
-      if (eat(']')) return v;
-      do v.array.push_back(value());
-      while (ok && eat(','));
-      if (!eat(']')) ok = false;
-    } else if (c == '"') {
-      v.kind = Json::Kind::string;
-      v.string = string_literal();
-    } else if (word("true") || word("false")) {
-      v.kind = Json::Kind::boolean;
-      v.boolean = c == 't';
-    } else if (word("null")) {
-      v.kind = Json::Kind::null;
-    } else {
-      char* end = nullptr;
-      v.kind = Json::Kind::number;
-      v.number = std::strtod(text_.c_str() + at_, &end);
-      if (end == text_.c_str() + at_) ok = false;
-      at_ = static_cast<std::size_t>(end - text_.c_str());
-    }
-    return v;
-  }
-
-  std::string text_;
-  std::size_t at_ = 0;
-};
-
-Json read_json(const fs::path& path) {
-  JsonReader reader(read_text(path));
-  Json j = reader.parse();
-  EXPECT_TRUE(reader.ok) << path << " is not valid JSON";
-  return j;
-}
+using dem::test::cli::Json;
+using dem::test::cli::read_json;
 
 /// Values of attribute `name` in every element `<tag ...>` of `xml`, in order.
 std::vector<std::string> xml_attributes(const std::string& xml, const std::string& tag, const std::string& name) {

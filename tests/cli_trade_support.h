@@ -1,13 +1,7 @@
 #pragma once
 // What the `dem trade` tests share: run the program from the source root as a user would, in a fresh
 // folder per test, and read the CSV files it writes.
-#include <gtest/gtest.h>
-
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -15,62 +9,19 @@
 #include <string>
 #include <vector>
 
-#ifndef DEM_PROGRAM
-#error "DEM_PROGRAM (path of the dem executable) must be defined by tests/CMakeLists.txt"
-#endif
-#ifndef DEM_SOURCE_DIR
-#error "DEM_SOURCE_DIR (the repository root) must be defined by tests/CMakeLists.txt"
-#endif
+#include "tests/cli_support.h"
 
 namespace dem::test::trade_cli {
 
+using cli::read_text;
+using cli::Result;
+using cli::source_dir;
+using cli::TempDir;
 namespace fs = std::filesystem;
-
-inline const fs::path source_dir{DEM_SOURCE_DIR};
-
-inline std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-struct Result {
-  int code = -1;
-  std::string out, err;
-};
-
-/// A fresh folder per test, removed afterwards.
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() /
-            ("dem_cli_trade_test_" + std::to_string(::getpid()) + "_" + info->test_suite_name() + "_" + info->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
 
 /// Runs `dem trade <args>` from the source root (so scenes/... resolve); stdout and stderr captured.
 inline Result trade(const std::string& args, const TempDir& dir) {
-  const fs::path out = dir.path() / "stdout.txt", err = dir.path() / "stderr.txt";
-  const std::string command = "cd '" + source_dir.string() + "' && '" + std::string(DEM_PROGRAM) + "' trade " + args +
-                              " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(command.c_str());
-  Result r;
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = read_text(out);
-  r.err = read_text(err);
-  return r;
+  return cli::run_dem_shell("trade " + args, dir.path(), source_dir);
 }
 
 struct Csv {

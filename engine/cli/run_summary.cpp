@@ -1,0 +1,107 @@
+// summary.json of `dem run` (run_summary.h).
+#include "engine/cli/run_summary.h"
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "engine/cli/version.h"
+#include "engine/cli/world_records.h"
+
+namespace dem::cli {
+namespace {
+
+JsonObject settings_json(const Scene& scene, const World& world) {
+  JsonObject settings;
+  settings.add("scene", scene.file)
+      .add("scene_name", scene.name)
+      .add("dimension", scene.world.model.dimension)
+      .add("particles", static_cast<std::uint64_t>(world.state().size()))
+      .add("method", scene.world.integrator.method == Method::verlet ? "verlet" : "exact")
+      .add("control", scene.world.integrator.control == Control::fixed ? "fixed" : "doubling")
+      .add("dt", scene.world.integrator.dt)
+      .add("tolerance", scene.world.integrator.tolerance)
+      .add("error_per_unit_step", scene.world.integrator.error_per_unit_step)
+      .add("level_min", scene.world.integrator.level_min)
+      .add("level_max", scene.world.integrator.level_max)
+      .add("until", scene.run.until)
+      .add("output_interval", scene.output.interval)
+      .add("skin", world.skin())
+      .add("skin_chosen_from_speeds", world.skin_is_chosen())
+      .add("candidate_skin", world.candidate_skin());
+  return settings;
+}
+
+JsonObject counters_json(const Scene& scene, const RunCounters& c) {
+  JsonObject counters;
+  counters.add("sync_intervals", c.sync_intervals)
+      .add("accepted_steps", c.accepted_steps)
+      .add("rejected_steps", c.rejected_steps)
+      .add("forced_steps", c.forced_steps)
+      .add("particle_steps", c.particle_steps)
+      .add("force_evaluations", c.force_evaluations)
+      .add("pair_rebuilds", c.pair_rebuilds)
+      .add("round_redos", c.round_redos)
+      .add("unresolved_contacts", c.unresolved_contacts)
+      .add("richardson_steps", c.richardson_steps);
+  // Accepted particle-steps per level ("level": count), levels that were used only.
+  JsonObject histogram;
+  for (std::size_t k = 0; k < c.level_histogram.size(); ++k)
+    if (c.level_histogram[k] > 0)
+      histogram.add(std::to_string(static_cast<int>(k) + (scene.world.integrator.control == Control::fixed
+                                                              ? 0
+                                                              : scene.world.integrator.level_min)),
+                    c.level_histogram[k]);
+  counters.add("level_histogram", histogram);
+  return counters;
+}
+
+JsonObject provenance_json(const Scene& scene, const World& world) {
+  JsonObject provenance;
+  std::vector<double> seeds(scene.seeds.begin(), scene.seeds.end());
+  provenance.add("version", DEM_VERSION)
+      .add("git_hash", DEM_GIT_HASH)
+      .add("compiler", __VERSION__)
+      .add("flags", DEM_COMPILE_FLAGS)
+      .add("threads", world.thread_count())
+      .add("seeds", seeds);
+  return provenance;
+}
+
+/// What the steps came closest to getting wrong (step_watch.h): the deepest overlap of any step and
+/// the longest fixed Verlet step in radii travelled.
+JsonObject watch_json(const World& world) {
+  JsonObject watch;
+  const World::Culprit &deepest = world.deepest_overlap_seen(), &travel = world.longest_step_travel_seen();
+  watch.add("deepest_overlap", deepest.value)
+      .add("deepest_overlap_particles", std::vector<double>{static_cast<double>(deepest.particle),
+                                                             static_cast<double>(deepest.partner)})
+      .add("deepest_overlap_time", deepest.time)
+      .add("longest_step_travel", travel.value)
+      .add("longest_step_travel_particle", static_cast<std::uint64_t>(travel.particle))
+      .add("longest_step_travel_time", travel.time);
+  return watch;
+}
+
+}  // namespace
+
+JsonObject run_summary(const Scene& scene, const World& world, const RunEnd& end, double wall_seconds,
+                       const JsonObject& start_energy) {
+  const RunCounters& c = world.counters();
+  JsonObject summary;
+  summary.add("status", end.divergence.empty() ? "ok" : "diverged")
+      .add("stop_reason", end.divergence.empty() ? end.stop_reason : end.divergence)
+      .add("time", world.time())
+      .add("settings", settings_json(scene, world))
+      .add("counters", counters_json(scene, c))
+      .add("watch", watch_json(world))
+      .add("wall_time", wall_seconds)
+      .add("particle_steps_per_second", static_cast<double>(c.particle_steps) / std::max(wall_seconds, 1e-9))
+      .add("start", start_energy)
+      .add("end", energy_json(world))
+      .add("state_hash", hex(world.state_hash()))
+      .add("provenance", provenance_json(scene, world));
+  return summary;
+}
+
+}  // namespace dem::cli

@@ -1,0 +1,15 @@
+#pragma once
+// summary.json of `dem run`: status, settings, counters, watch, energies, state hash and provenance.
+#include "engine/cli/run_loop.h"
+#include "engine/json_writer.h"
+#include "engine/scene.h"
+#include "engine/world.h"
+
+namespace dem::cli {
+
+/// The summary of a run that ended as `end` after `wall_seconds`; `start_energy` is energy_json of
+/// its start (world_records.h). A mill's block is added by the caller.
+JsonObject run_summary(const Scene& scene, const World& world, const RunEnd& end, double wall_seconds,
+                       const JsonObject& start_energy);
+
+}  // namespace dem::cli
