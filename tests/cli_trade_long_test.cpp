@@ -1,7 +1,7 @@
 // `dem trade` on the shipped mills (ctest label `long`): each fixed step and a step-doubling run finish,
 // and the power draw and the collision spectrum are measured against a reference with a noise floor
 // from perturbed references. mill_2d over its first 0.5 s (a few minutes on 2 cores); mill_3d over its
-// first 0.3 s, while the charge falls in (about an hour on 2 cores). The README's mill trade tables
+// first 0.3 s, while the charge falls in (about an hour on 2 cores). The mill trade tables of docs/mills.md
 // come from the same commands with longer windows.
 #include <gtest/gtest.h>
 
