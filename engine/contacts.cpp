@@ -242,6 +242,7 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
   };
   // With lists, only the particles they list are visited (the rest touch no wall and count 0); in
   // ascending order either way, so the contacts come out in key order.
+  DEM_ASSERT(!lists || lists->particle_count() == n);
   const std::size_t visited = lists ? lists->listed_particles().size() : n;
   const auto particle = [&](std::size_t v) -> std::size_t { return lists ? lists->listed_particles()[v] : v; };
   if (visited < n) work.count.assign(n, 0);

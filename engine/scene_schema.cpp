@@ -63,7 +63,8 @@ const std::vector<SceneKey> schema = {
     // [run], [output], [broadphase], [accuracy]
     {"run.until", "s"}, {"run.threads", ""}, {"run.stop_kinetic_energy", "J"}, {"run.stop_check_after", "s"},
     {"output.interval", "s"}, {"output.snapshot_interval", "s"}, {"output.settled_file", ""},
-    {"output.trajectories", ""}, {"output.contacts", ""}, {"output.vtk_format", ""}, {"broadphase.skin", "m"}, {"broadphase.kind", ""}, {"broadphase.wall_lists", ""},
+    {"output.trajectories", ""}, {"output.contacts", ""}, {"output.vtk_format", ""},
+    {"broadphase.skin", "m"}, {"broadphase.kind", ""}, {"broadphase.wall_lists", ""},
     {"accuracy.metrics", ""}};
 
 

@@ -4,8 +4,9 @@
 // such as a mill's shell and end walls) enter a particle's list only when within `margin` of it at
 // the build; every other wall (a turning box, a mesh) is listed for every movable particle. The lists
 // stay valid while each particle's displacement since the build plus the filtered walls' largest
-// travel (Walls::max_travel) is at most the margin: then no wall left out can have come into touch. The lists only skip tests
-// that could not succeed, so contacts and results are the same as with no lists at all.
+// travel (Walls::max_travel) is at most the margin: then no wall left out can have come into touch.
+// The lists only skip tests that could not succeed, so contacts and results are the same as with no
+// lists at all.
 // Threading: build and the validity test are per particle, each writing only its own row, so the
 // lists do not depend on the thread count.
 #include <cstdint>
@@ -35,6 +36,8 @@ class WallLists {
   std::uint16_t wall(std::uint32_t k) const { return wall_[k]; }
   /// The particles whose lists are not empty, ascending: the only ones that can touch a wall.
   const std::vector<std::uint32_t>& listed_particles() const { return listed_; }
+  /// How many particles the lists were built for.
+  std::size_t particle_count() const { return reference_.size(); }
 
   /// Heap bytes held.
   std::size_t memory_bytes() const;

@@ -306,13 +306,15 @@ Real Walls::max_travel(std::size_t w, Real t0, Real t1) const {
   if (!filtered(w)) return 0;
   // A point at distance rho from the rotation axis moves by at most rho times the angle turned, the
   // centre by the translation; both are the configured rates times the ramp's distance factor. A
-  // filtered wall other than a prism does not turn (and has no prism reach): it travels with its centre.
+  // filtered wall other than a prism does not turn, or turns in place (no prism reach): its surface
+  // travels with its centre.
   const WallConfig& c = config_[w];
   const Real distance = ramp_distance(t1, c.ramp_time) - ramp_distance(t0, c.ramp_time);
   Real travel = (c.velocity.norm() + c.angular_velocity.norm() * prism_[w].reach) * std::abs(distance);
   // A plane or cylinder turning in place (turns_in_place): its posed normal or axis is the configured
   // one up to the rounding of the rotation matrix, which moves the computed surface by a few ulps of
-  // the coordinates; one nanometre per metre of its extent bounds that with room to spare.
+  // the coordinates; one nanometre per metre of its extent bounds that with room to spare (at worst,
+  // with a margin below it, the lists are rebuilt at every step: slower, never wrong).
   if (c.kind != WallKind::prism && c.angular_velocity.norm() != 0) {
     const Real length = std::isfinite(c.length) ? c.length : 0;
     travel += 1e-9 * (1 + c.point.norm() + c.rotation_center.norm() + c.radius + length);

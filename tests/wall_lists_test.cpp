@@ -81,6 +81,8 @@ TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
   end.point = Vec3(0, 0, 0.015);
   end.normal = -Vec3::UnitZ();
   end.angular_velocity = Vec3(0, 0, 3);
+  end.rotation_center = Vec3::Zero();  // off the plane, as a mill's end walls turn about its axis
+  end.use_rotation_center = true;
   config.push_back(end);
   WallConfig eccentric = shell;
   eccentric.radius = 0.115;

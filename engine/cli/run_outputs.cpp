@@ -45,7 +45,13 @@ RunOutputs::RunOutputs(const Scene& scene, const World& world, const std::filesy
     if (trajectories_) trajectories_->truncate_after(world.time());
     particles_pvd_.truncate_after(world.time());
     walls_pvd_.truncate_after(world.time());
-    if (contacts_pvd_) contacts_pvd_->truncate_after(world.time());
+    if (contacts_pvd_) {
+      contacts_pvd_->truncate_after(world.time());
+    } else if (std::filesystem::exists(out_ / "contacts.pvd")) {
+      // The run that died wrote a contact network this one does not: its index keeps what the
+      // checkpoint's time covers, so it never lists snapshots of a future that did not happen.
+      PvdIndex(out_ / "contacts.pvd").truncate_after(world.time());
+    }
     // A resumed run already wrote what was due at the checkpoint's time.
     rows_.done_at(world.time());
     if (snapshots_.enabled()) snapshots_.done_at(world.time());

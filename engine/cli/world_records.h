@@ -13,7 +13,7 @@
 
 namespace dem::cli {
 
-/// A row of series.csv (output.h, series_columns).
+/// A row of series.csv (csv_writer.h, series_columns).
 std::vector<double> series_row(const World& world);
 /// One row of trajectories.csv per particle, in id order.
 void append_trajectories(SeriesWriter& out, const World& world);
