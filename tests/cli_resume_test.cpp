@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "tests/cli_support.h"
 
@@ -110,6 +111,41 @@ TEST(CliResume, RunKilledMidwayResumesFromItsLastCheckpointToTheSameHash) {
   ASSERT_EQ(run("--until 0.35 --out " + killed.string() + " --resume " + checkpoint.string()), 0);
   EXPECT_EQ(hash_of(killed / "summary.json"), hash_of(base / "straight" / "summary.json"));
   EXPECT_EQ(read_text(killed / "series.csv"), read_text(base / "straight" / "series.csv"));
+  fs::remove_all(base);
+}
+
+// Times of the entries of a .pvd index.
+std::vector<double> pvd_times(const fs::path& pvd) {
+  const std::string text = read_text(pvd);
+  std::vector<double> times;
+  const std::string key = "timestep=\"";
+  for (std::size_t at = text.find(key); at != std::string::npos; at = text.find(key, at + 1))
+    times.push_back(std::stod(text.substr(at + key.size())));
+  return times;
+}
+
+TEST(CliResume, AResumedRunWithoutTheContactNetworkCutsTheEarlierRunsIndexAtTheCheckpoint) {
+  const fs::path base = fs::temp_directory_path() / ("dem_resume_contacts_" + std::to_string(::getpid()));
+  fs::remove_all(base);
+  const std::string out = " --out " + (base / "run").string();
+  const std::string snapshots = " --set output.snapshot_interval=0.05";
+  ASSERT_EQ(run("--until 0.15 --set output.contacts=true" + snapshots + out), 0);
+  fs::path checkpoint;
+  for (const auto& e : fs::directory_iterator(base / "run"))
+    if (e.path().filename().string().rfind("checkpoint_", 0) == 0) checkpoint = e.path();
+  ASSERT_FALSE(checkpoint.empty());
+  const fs::path kept = base / "checkpoint.bin";
+  fs::copy_file(checkpoint, kept);
+  // The run that went on to 0.3 and died there: its contact network reaches past the checkpoint.
+  ASSERT_EQ(run("--until 0.3 --set output.contacts=true" + snapshots + out + " --resume " + kept.string()), 0);
+  const std::vector<double> before = pvd_times(base / "run" / "contacts.pvd");
+  ASSERT_FALSE(before.empty());
+  ASSERT_GT(before.back(), 0.2);
+  // Resumed from 0.15 without the network: its index keeps only what 0.15 covers.
+  ASSERT_EQ(run("--until 0.3 --set output.contacts=false" + snapshots + out + " --resume " + kept.string()), 0);
+  const std::vector<double> after = pvd_times(base / "run" / "contacts.pvd");
+  ASSERT_FALSE(after.empty()) << "the snapshots up to the checkpoint stay listed";
+  for (const double t : after) EXPECT_LE(t, 0.15 + 1e-9) << "an entry of the run that died after the checkpoint";
   fs::remove_all(base);
 }
 
