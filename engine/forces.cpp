@@ -105,10 +105,9 @@ void set_rates(ContactKinematics& kin, const SurfaceMotion& half_step, const Sur
 }
 
 /// Evaluates pair contact k of `c` (between particles i and j) and writes its slots: force, rolling torque, history,
-/// overlap and books. Returns the unit normal from j to i.
+/// overlap and books. Returns the unit normal from j to i. Flattened: the surface-motion, rate and law
+/// helpers are inlined into it, so their structs stay in registers instead of passing through memory.
 template <class Law>
-// Flattened: the surface-motion, rate and law helpers are inlined into it, so their structs stay in
-// registers instead of passing through memory on every contact.
 [[gnu::flatten]] Vec3 evaluate_pair(const State& s, const MaterialTable& materials, PairContacts& c, std::size_t k,
                                     ParticleIndex i, ParticleIndex j, Real h, const DashpotVelocity& d, bool books) {
   const auto [n, dist] = pair_normal(s, i, j);

@@ -60,8 +60,8 @@ bool WallLists::valid(const State& s, const Walls& walls) const {
 }
 
 std::size_t WallLists::memory_bytes() const {
-  return (start_.capacity() + listed_.capacity()) * sizeof(std::uint32_t) + wall_.capacity() * sizeof(std::uint16_t) +
-         reference_.capacity() * sizeof(Eigen::Vector3f);
+  return (start_.capacity() + listed_.capacity()) * sizeof(std::uint32_t) +
+         wall_.capacity() * sizeof(std::uint16_t) + reference_.capacity() * sizeof(Eigen::Vector3f);
 }
 
 }  // namespace dem
