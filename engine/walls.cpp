@@ -19,6 +19,35 @@ Real cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x()
 Real ramp_distance(Real t, Real ramp) { return ramp > 0 && t < ramp ? t * t / (2 * ramp) : t - 0.5 * std::max(ramp, Real(0)); }
 Real ramp_rate(Real t, Real ramp) { return ramp > 0 && t < ramp ? t / ramp : 1; }
 
+namespace {
+
+/// True when wall c's turning leaves its surface where it is: it does not turn, or it is a plane
+/// turning about its normal, or a cylinder turning about its own axis (the rotation centre on it).
+/// Only its translation moves such a wall.
+bool turns_in_place(const WallConfig& c) {
+  if (c.angular_velocity.norm() == 0) return true;
+  if (c.kind == WallKind::plane) return c.angular_velocity.cross(c.normal).norm() == 0;
+  if (c.kind == WallKind::cylinder)
+    return c.angular_velocity.cross(c.axis).norm() == 0 && (c.rotation_center - c.point).cross(c.axis).norm() == 0;
+  return false;
+}
+
+/// Walls::filtered for wall c.
+bool filtered_by_wall_lists(const WallConfig& c) {
+  switch (c.kind) {
+    case WallKind::prism:
+      return true;
+    case WallKind::mesh:
+      return false;
+    case WallKind::box:
+      return c.angular_velocity.norm() == 0;
+    default:
+      return turns_in_place(c);
+  }
+}
+
+}  // namespace
+
 Walls::Walls(const std::vector<WallConfig>& walls, const MaterialTable& materials) : config_(walls) {
   for (auto& w : config_) {
     if (!w.use_rotation_center) w.rotation_center = w.point;
@@ -36,6 +65,7 @@ Walls::Walls(const std::vector<WallConfig>& walls, const MaterialTable& material
     if (m < 0) throw std::invalid_argument("wall '" + w.name + "' names an unknown material '" + w.material + "'");
     material_.push_back(static_cast<std::uint16_t>(m));
     prism_.push_back(w.kind == WallKind::prism ? make_prism(w) : PrismShape{});
+    filtered_.push_back(filtered_by_wall_lists(w) ? 1 : 0);
   }
   if (config_.size() > max_walls)
     throw std::invalid_argument("at most " + std::to_string(max_walls) + " walls fit a contact key, not " +
@@ -233,35 +263,6 @@ bool Walls::touch_prism(std::size_t w, const Vec3& x, Real r, WallTouch& out) co
                              : Vec3(shape.normal[outmost_edge].x() * shape.u + shape.normal[outmost_edge].y() * shape.v);
   out.normal = p.rotation * normal0;
   return true;
-}
-
-namespace {
-
-/// True when wall c's turning leaves its surface where it is: it does not turn, or it is a plane
-/// turning about its normal, or a cylinder turning about its own axis (the rotation centre on it).
-/// Only its translation moves such a wall.
-bool turns_in_place(const WallConfig& c) {
-  if (c.angular_velocity.norm() == 0) return true;
-  if (c.kind == WallKind::plane) return c.angular_velocity.cross(c.normal).norm() == 0;
-  if (c.kind == WallKind::cylinder)
-    return c.angular_velocity.cross(c.axis).norm() == 0 && (c.rotation_center - c.point).cross(c.axis).norm() == 0;
-  return false;
-}
-
-}  // namespace
-
-bool Walls::filtered(std::size_t w) const {
-  const WallConfig& c = config_[w];
-  switch (c.kind) {
-    case WallKind::prism:
-      return true;
-    case WallKind::mesh:
-      return false;
-    case WallKind::box:
-      return c.angular_velocity.norm() == 0;
-    default:
-      return turns_in_place(c);
-  }
 }
 
 bool Walls::may_touch(std::size_t w, const Vec3& x, Real r, Real margin) const {

@@ -70,7 +70,7 @@ class Walls {
   /// many and small, so most particles are far from most of them), boxes that do not turn, and planes
   /// and cylinders whose turning leaves their surface in place (a container, a mill's shell and end
   /// walls: most particles are far from them). Meshes and other turning walls are tested always.
-  bool filtered(std::size_t w) const;
+  bool filtered(std::size_t w) const { return filtered_[w] != 0; }
   /// For a filtered wall: false only when the sphere (centre x, radius r) is more than `margin` [m]
   /// clear of the wall's bound now, so no motion of the two that adds up to at most `margin` brings
   /// them into touch. True for every other kind.
@@ -118,6 +118,7 @@ class Walls {
 
   std::vector<WallConfig> config_;
   std::vector<PrismShape> prism_;  // per wall; empty shape for other kinds
+  std::vector<char> filtered_;     // per wall: filtered(w), fixed by its kind and motion
   std::vector<std::uint16_t> material_;
   std::vector<Pose> pose_;
   Real time_ = 0;
