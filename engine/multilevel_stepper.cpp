@@ -1,0 +1,387 @@
+#include "engine/multilevel_stepper.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <tuple>
+
+#include "engine/checks.h"
+
+namespace dem {
+namespace {
+
+/// The particles `members` of `s` (ascending slots), as a state of their own.
+State select(const State& s, const std::vector<ParticleIndex>& members) {
+  State out;
+  for (ParticleIndex p : members) {
+    out.id.push_back(s.id[p]);
+    out.position.push_back(s.position[p]);
+    out.velocity.push_back(s.velocity[p]);
+    out.angular_velocity.push_back(s.angular_velocity[p]);
+    out.force.push_back(s.force[p]);
+    out.torque.push_back(s.torque[p]);
+    out.radius.push_back(s.radius[p]);
+    out.inv_mass.push_back(s.inv_mass[p]);
+    out.inv_inertia.push_back(s.inv_inertia[p]);
+    out.material.push_back(s.material[p]);
+    out.level.push_back(s.level[p]);
+  }
+  return out;
+}
+
+void flatten_to_plane(Vec3& v) { v.z() = 0; }
+void spin_about_normal(Vec3& w) { w.x() = 0, w.y() = 0; }
+
+}  // namespace
+
+MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candidates, const Walls& walls,
+                                 const MultilevelPhysics& physics, Real time, const std::vector<int>& levels)
+    : physics_(physics), state_(std::move(state)), candidates_(std::move(candidates)), walls_(walls), time_(time),
+      time0_(time) {
+  DEM_ASSERT(candidates_.row_count() == state_.size());
+  rotation_ = physics_.kernels.uses_rotation;
+  parts_ = {physics_.materials->any_friction(), physics_.materials->any_rolling(), false};
+  level_.assign(state_.size(), physics_.level_min);
+  neighbours_.assign(1, NeighbourContacts{});
+  set_levels(levels);
+  // The first evaluation: every contact at the state as given, springs not advanced.
+  view_ = state_;
+  walls_.set_time(time_);
+  for (std::size_t c = 0; c < neighbours_.size(); ++c) evaluate_level(c, 0);
+}
+
+Real MultilevelGroup::step_of_index(std::size_t index) const {
+  return std::ldexp(physics_.dt_base, physics_.level_min + static_cast<int>(index));
+}
+
+Real MultilevelGroup::tick_length() const { return std::ldexp(physics_.dt_base, physics_.level_min); }
+
+void MultilevelGroup::set_levels(const std::vector<int>& levels) {
+  const std::size_t n = state_.size();
+  if (levels.size() != n) throw std::invalid_argument("MultilevelGroup: one level per particle");
+  std::size_t count = 1;
+  for (int l : levels) {
+    if (l < physics_.level_min || l > physics_.level_min + 40)
+      throw std::invalid_argument("MultilevelGroup: levels must lie in [level_min, level_min + 40]");
+    count = std::max(count, level_index(l) + 1);
+  }
+
+  // The touching pair contacts of every list, in key order: (key, list, slot, row).
+  std::vector<std::tuple<std::uint64_t, std::size_t, std::uint32_t, ParticleIndex>> pairs;
+  for (std::size_t c = 0; c < neighbours_.size(); ++c) {
+    const NeighbourContacts& nb = neighbours_[c];
+    if (nb.list.row_start.size() != n + 1) continue;
+    for (std::size_t a = 0; a < n; ++a)
+      for (std::uint32_t k = nb.list.row_start[a]; k < nb.list.row_start[a + 1]; ++k)
+        if (nb.touching[k] == touching_yes)
+          pairs.emplace_back(pair_key(state_.id[a], state_.id[nb.list.j[k]]), c, k, static_cast<ParticleIndex>(a));
+  }
+  std::sort(pairs.begin(), pairs.end());
+  // The touching wall contacts, in key order: (key, list, index).
+  std::vector<std::tuple<std::uint64_t, std::size_t, std::uint32_t>> touches;
+  for (std::size_t l = 0; l < wall_contacts_.size(); ++l)
+    for (std::uint32_t k = 0; k < wall_contacts_[l].size(); ++k) touches.emplace_back(wall_contacts_[l].key[k], l, k);
+  std::sort(touches.begin(), touches.end());
+
+  level_ = levels;
+  for (std::size_t p = 0; p < n; ++p) state_.level[p] = static_cast<std::int8_t>(levels[p]);
+  const auto contact_index = [&](std::size_t a, std::size_t b) {
+    return level_index(std::min(level_[a], level_[b]));
+  };
+
+  // Candidate pairs by contact level.
+  level_candidates_.assign(count, broadphase::CandidatePairs{});
+  for (broadphase::CandidatePairs& c : level_candidates_) c.row_start.assign(n + 1, 0);
+  for (std::size_t a = 0; a < n; ++a)
+    for (std::uint32_t k = candidates_.row_start[a]; k < candidates_.row_start[a + 1]; ++k)
+      ++level_candidates_[contact_index(a, candidates_.partner[k])].row_start[a + 1];
+  for (broadphase::CandidatePairs& c : level_candidates_) {
+    for (std::size_t a = 0; a < n; ++a) c.row_start[a + 1] += c.row_start[a];
+    c.partner.resize(c.row_start[n]);
+  }
+  std::vector<std::uint32_t> fill(count);
+  for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t c = 0; c < count; ++c) fill[c] = level_candidates_[c].row_start[a];
+    for (std::uint32_t k = candidates_.row_start[a]; k < candidates_.row_start[a + 1]; ++k) {
+      const std::uint32_t b = candidates_.partner[k];
+      const std::size_t c = contact_index(a, b);
+      level_candidates_[c].partner[fill[c]++] = b;
+    }
+  }
+
+  // Each touching contact goes to the compact list of its new contact level, in key order, and the
+  // persistent lists are made from those.
+  std::vector<PairContacts> compact(count);
+  for (PairContacts& c : compact) c.parts = parts_;
+  for (const auto& [key, list, slot, a] : pairs) {
+    const ParticleIndex b = neighbours_[list].list.j[slot];
+    PairContacts& c = compact[contact_index(a, b)];
+    const std::size_t at = c.size();
+    c.resize(at + 1);
+    copy_pair(neighbours_[list].list, slot, c, at);
+    c.i[at] = a;
+    c.key[at] = key;
+  }
+  std::vector<NeighbourContacts> fresh(count);
+  for (std::size_t c = 0; c < count; ++c) {
+    compact[c].index_rows(n);
+    rebuild_neighbours(state_, level_candidates_[c], compact[c], fresh[c]);
+  }
+  neighbours_ = std::move(fresh);
+  rebuilt_from_ = std::move(compact);
+
+  // Members, their states and wall contacts by particle level.
+  std::vector<std::uint32_t> member_index(n);
+  const std::vector<std::vector<ParticleIndex>> old_members = std::move(members_);
+  members_.assign(count, {});
+  for (std::size_t p = 0; p < n; ++p) {
+    std::vector<ParticleIndex>& m = members_[level_index(level_[p])];
+    member_index[p] = static_cast<std::uint32_t>(m.size());
+    m.push_back(static_cast<ParticleIndex>(p));
+  }
+  std::vector<WallContacts> walls(count);
+  for (const auto& [key, list, k] : touches) {
+    const ParticleIndex slot = old_members[list][wall_contacts_[list].particle[k]];
+    WallContacts& w = walls[level_index(level_[slot])];
+    const std::size_t at = w.size();
+    w.resize(at + 1);
+    copy_wall(wall_contacts_[list], k, w, at);
+    w.particle[at] = member_index[slot];
+  }
+  wall_contacts_ = std::move(walls);
+  member_state_.assign(count, State{});
+  wall_start_.assign(count, {});
+  for (std::size_t l = 0; l < count; ++l) {
+    member_state_[l] = select(state_, members_[l]);
+    wall_start_[l].assign(members_[l].size() + 1, 0);
+  }
+}
+
+void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
+  const DashpotVelocity dashpot{false, physics_.gravity, physics_.dimension};
+  NeighbourContacts& nb = neighbours_[c];
+  if (nb.size() > 0) {
+    physics_.kernels.neighbour_forces(view_, *physics_.materials, nb, h, dashpot);
+    ended_dissipation_ += finish_ended_contacts(view_, nb, rebuilt_from_[c], nullptr);
+  }
+  if (members_[c].empty() || walls_.count() == 0) return;
+  State& sub = member_state_[c];
+  for (std::size_t q = 0; q < members_[c].size(); ++q) {
+    const ParticleIndex p = members_[c][q];
+    sub.position[q] = view_.position[p];
+    sub.velocity[q] = view_.velocity[p];
+    sub.angular_velocity[q] = view_.angular_velocity[p];
+  }
+  ended_dissipation_ +=
+      update_wall_contacts(sub, walls_, *physics_.materials, wall_contacts_[c], workspace_, wall_start_[c]);
+  physics_.kernels.wall_forces(sub, *physics_.materials, walls_, wall_contacts_[c], h, dashpot);
+}
+
+void MultilevelGroup::add_load(ParticleIndex p, Vec3 force, Vec3 torque, Real weight) {
+  if (state_.inv_mass[p] == 0) return;
+  if (physics_.dimension == 2) flatten_to_plane(force), spin_about_normal(torque);
+  TickLoad& l = load_[p];
+  l.force += force;
+  l.weighted_force += weight * force;
+  if (rotation_) {
+    l.torque += torque;
+    l.weighted_torque += weight * torque;
+  }
+}
+
+void MultilevelGroup::add_level_loads(std::size_t c, bool use_stored_normal) {
+  const Real weight = 0.5 * step_of_index(c);
+  const NeighbourContacts& nb = neighbours_[c];
+  const PairContacts& list = nb.list;
+  for (std::size_t a = 0; a < state_.size(); ++a) {
+    if (list.row_start.size() != state_.size() + 1) break;
+    for (std::uint32_t k = list.row_start[a]; k < list.row_start[a + 1]; ++k) {
+      if (nb.touching[k] != touching_yes) continue;
+      const ParticleIndex i = static_cast<ParticleIndex>(a), j = list.j[k];
+      const Vec3& f = list.force[k];
+      Vec3 torque_i = Vec3::Zero(), torque_j = Vec3::Zero();
+      if (rotation_) {
+        // -a n x F on each side (n from j to i, the force on i), plus or minus the rolling torque.
+        const Vec3 moment = use_stored_normal ? nb.moment[k] : Vec3(pair_normal(state_, i, j).n.cross(f));
+        torque_i = -(state_.radius[i] - 0.5 * list.overlap[k]) * moment;
+        torque_j = -(state_.radius[j] - 0.5 * list.overlap[k]) * moment;
+        if (parts_.rolling) torque_i += list.rolling_torque[k], torque_j -= list.rolling_torque[k];
+      }
+      add_load(i, f, torque_i, weight);
+      add_load(j, -f, torque_j, weight);
+    }
+  }
+  const WallContacts& w = wall_contacts_[c];
+  for (std::size_t k = 0; k < w.size(); ++k)
+    add_load(members_[c][w.particle[k]], w.force[k], rotation_ ? w.torque[k] : Vec3(Vec3::Zero()), weight);
+}
+
+void MultilevelGroup::begin_step(ParticleIndex p, std::int64_t t) {
+  Step& s = step_[p];
+  const TickLoad& l = load_[p];
+  s.start = t;
+  s.ticks = std::int64_t{1} << level_index(level_[p]);
+  const Real h = step_of_index(level_index(level_[p]));
+  s.x0 = state_.position[p];
+  s.v0 = state_.velocity[p];
+  s.w0 = state_.angular_velocity[p];
+  const Real inv_m = state_.inv_mass[p];
+  s.a0 = inv_m == 0 ? Vec3(Vec3::Zero()) : Vec3(inv_m * l.force + physics_.gravity);
+  s.alpha0 = state_.inv_inertia[p] * l.torque;
+  if (physics_.dimension == 2) flatten_to_plane(s.a0);
+  s.impulse = l.weighted_force;
+  s.moment = h * l.weighted_force;
+  s.angular_impulse = l.weighted_torque;
+  s.angular_moment = h * l.weighted_torque;
+  state_.force[p] = l.force;
+  state_.torque[p] = l.torque;
+}
+
+void MultilevelGroup::finish_positions(std::size_t due) {
+  for (std::size_t p = 0; p < state_.size(); ++p) {
+    if (level_index(level_[p]) > due) continue;
+    const Step& s = step_[p];
+    const Real h = step_of_index(level_index(level_[p]));
+    const Real inv_m = state_.inv_mass[p];
+    Vec3 x = s.x0 + h * s.v0;
+    if (inv_m != 0) x += (0.5 * h * h) * physics_.gravity + inv_m * s.moment;
+    if (physics_.dimension == 2) flatten_to_plane(x);
+    state_.position[p] = x;
+  }
+}
+
+void MultilevelGroup::set_view_positions(std::int64_t t, std::size_t due) {
+  const Real tick = tick_length();
+  for (std::size_t p = 0; p < state_.size(); ++p) {
+    if (level_index(level_[p]) <= due) {
+      view_.position[p] = state_.position[p];
+      continue;
+    }
+    const Step& s = step_[p];
+    const Real tau = static_cast<Real>(t - s.start) * tick;
+    view_.position[p] = s.x0 + tau * s.v0 + (0.5 * tau * tau) * s.a0;
+  }
+}
+
+void MultilevelGroup::set_view_motion(std::int64_t t, std::size_t c) {
+  const Real tick = tick_length();
+  const Real h_c = step_of_index(c);
+  for (std::size_t p = 0; p < state_.size(); ++p) {
+    const std::size_t index = level_index(level_[p]);
+    if (index < c) continue;  // finer than every contact of this level: not read
+    const Step& s = step_[p];
+    const Real inv_m = state_.inv_mass[p];
+    if (index == c) {
+      // The finer side: its mean velocity over the step just ended, (x - x0) / H.
+      Vec3 v = s.v0;
+      if (inv_m != 0) v += (0.5 * h_c) * physics_.gravity + (inv_m / h_c) * s.moment;
+      view_.velocity[p] = v;
+      view_.angular_velocity[p] = s.w0 + (state_.inv_inertia[p] / h_c) * s.angular_moment;
+    } else {
+      // A coarser side: its prediction's mean over the substep [t - h_c, t].
+      const Real mid = static_cast<Real>(t - s.start) * tick - 0.5 * h_c;
+      view_.velocity[p] = s.v0 + mid * s.a0;
+      view_.angular_velocity[p] = s.w0 + mid * s.alpha0;
+    }
+    if (physics_.dimension == 2) flatten_to_plane(view_.velocity[p]), spin_about_normal(view_.angular_velocity[p]);
+  }
+}
+
+void MultilevelGroup::end_steps(std::int64_t t, std::size_t due, bool last) {
+  const Real tick = tick_length();
+  for (std::size_t p = 0; p < state_.size(); ++p) {
+    Step& s = step_[p];
+    const TickLoad& l = load_[p];
+    if (level_index(level_[p]) > due) {
+      // Mid-step: the force at t bounds two substeps of its contact, each weighing h/2.
+      const Real remaining = static_cast<Real>(s.start + s.ticks - t) * tick;
+      s.impulse += 2 * l.weighted_force;
+      s.moment += (2 * remaining) * l.weighted_force;
+      s.angular_impulse += 2 * l.weighted_torque;
+      s.angular_moment += (2 * remaining) * l.weighted_torque;
+      continue;
+    }
+    const Real h = step_of_index(level_index(level_[p]));
+    const Real inv_m = state_.inv_mass[p];
+    if (inv_m != 0) {
+      Vec3 v = s.v0 + h * physics_.gravity + inv_m * (s.impulse + l.weighted_force);
+      Vec3 w = s.w0 + state_.inv_inertia[p] * (s.angular_impulse + l.weighted_torque);
+      if (physics_.dimension == 2) flatten_to_plane(v), spin_about_normal(w);
+      state_.velocity[p] = v;
+      if (rotation_) state_.angular_velocity[p] = w;
+    }
+    ++particle_steps_;
+    if (last) {
+      state_.force[p] = l.force;
+      state_.torque[p] = l.torque;
+    } else {
+      begin_step(static_cast<ParticleIndex>(p), t);
+    }
+  }
+}
+
+void MultilevelGroup::advance(std::int64_t ticks) {
+  const std::size_t n = state_.size();
+  std::size_t finest = neighbours_.size() - 1;
+  for (std::size_t p = 0; p < n; ++p) {
+    const std::size_t index = level_index(level_[p]);
+    finest = std::min(finest, index);
+    if (ticks <= 0 || ticks % (std::int64_t{1} << index) != 0)
+      throw std::invalid_argument("MultilevelGroup::advance: every particle's step must divide the ticks");
+  }
+  if (n == 0) return;
+  // Every particle starts a step now, from the forces its contacts hold (the last evaluation, here).
+  load_.assign(n, TickLoad{});
+  for (std::size_t c = 0; c < neighbours_.size(); ++c) add_level_loads(c, false);
+  step_.resize(n);
+  for (std::size_t p = 0; p < n; ++p) begin_step(static_cast<ParticleIndex>(p), 0);
+  const std::int64_t stride = std::int64_t{1} << finest;
+  const Real tick = tick_length();
+  for (std::int64_t t = stride; t <= ticks; t += stride) {
+    // Due: the particles whose step ends at t, the levels up to the largest that t is aligned to.
+    std::size_t due = finest;
+    while (due + 1 < neighbours_.size() && t % (std::int64_t{1} << (due + 1)) == 0) ++due;
+    finish_positions(due);
+    set_view_positions(t, due);
+    walls_.set_time(time0_ + static_cast<Real>(tick_origin_ + t) * tick);
+    load_.assign(n, TickLoad{});
+    for (std::size_t c = finest; c <= due; ++c) {
+      set_view_motion(t, c);
+      evaluate_level(c, step_of_index(c));
+      add_level_loads(c, true);
+    }
+    end_steps(t, due, t == ticks);
+  }
+  tick_origin_ += ticks;
+  time_ = time0_ + static_cast<Real>(tick_origin_) * tick;
+}
+
+PairContacts MultilevelGroup::pair_contacts() const {
+  const std::size_t n = state_.size();
+  std::vector<std::pair<std::uint64_t, std::pair<std::size_t, std::uint32_t>>> order;
+  for (std::size_t c = 0; c < neighbours_.size(); ++c) {
+    const NeighbourContacts& nb = neighbours_[c];
+    if (nb.list.row_start.size() != n + 1) continue;
+    for (std::size_t a = 0; a < n; ++a)
+      for (std::uint32_t k = nb.list.row_start[a]; k < nb.list.row_start[a + 1]; ++k)
+        if (nb.touching[k] == touching_yes)
+          order.push_back({pair_key(state_.id[a], state_.id[nb.list.j[k]]), {c, k}});
+  }
+  std::sort(order.begin(), order.end());
+  PairContacts out;
+  out.parts = parts_;
+  out.resize(order.size());
+  for (std::size_t q = 0; q < order.size(); ++q) {
+    const auto [c, k] = order[q].second;
+    const PairContacts& list = neighbours_[c].list;
+    copy_pair(list, k, out, q);
+    out.key[q] = order[q].first;
+    // The row of slot k: the last row starting at or before it.
+    const auto row = std::upper_bound(list.row_start.begin(), list.row_start.end(), k) - list.row_start.begin() - 1;
+    out.i[q] = static_cast<ParticleIndex>(row);
+  }
+  out.index_rows(n);
+  return out;
+}
+
+}  // namespace dem

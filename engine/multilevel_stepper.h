@@ -1,0 +1,137 @@
+#pragma once
+// Velocity Verlet with a level per particle inside one touching group (docs/design.md, Time;
+// docs/physics.md 6.9). Particle p steps by H_p = dt_base * 2^level_p; a contact is
+// evaluated at the finer of its two particles' levels, at that level's ticks, and its force is
+// applied to both sides from the same evaluation:
+//  - the finer side integrates it step by step;
+//  - the coarser side, while its own step runs, stands in the evaluation as its prediction (start
+//    position, velocity, spin and acceleration: x0 + v0 tau + a0 tau^2 / 2), and its step books the
+//    force's impulse J = sum of h/2 (F_start + F_end) over the finer substeps, its first moment about
+//    the step's end K, and the same for the torque (L, M);
+//  - at its step's end: x = x0 + H v0 + H^2 g / 2 + K / m, v = v0 + H g + J / m, omega = omega0 + L / I.
+// A force at tick t weighs h/2 on each substep it bounds, with moment (step end - t), so a particle
+// whose partners all share its level makes exactly velocity Verlet's step, and the sums of J over
+// both sides of every contact cancel: linear momentum balances to round-off whatever the levels.
+// The velocity a contact law sees for a side is its mean over the substep just ended: the finer
+// side's (x - x0) / H, the coarser side's from its prediction.
+// The group owns a copy of its particles, its candidate pairs (which must stay valid while it
+// advances: the caller's skin covers the motion) and its contacts, persistent per candidate pair and
+// split by contact level (neighbour_contacts.h), and wall contacts split by particle level. Serial:
+// groups are the unit of parallel work, so results do not depend on thread count.
+// Verlet only; the dashpot sees the half-step velocity (DashpotVelocity::predicted is not supported).
+#include <cstdint>
+#include <vector>
+
+#include "broadphase/candidate_pairs.h"
+#include "engine/contacts.h"
+#include "engine/forces.h"
+#include "engine/neighbour_contacts.h"
+#include "engine/state.h"
+#include "engine/walls.h"
+
+namespace dem {
+
+/// What every group of a run shares.
+struct MultilevelPhysics {
+  const MaterialTable* materials = nullptr;
+  ForceKernels kernels;
+  Vec3 gravity = Vec3::Zero();  // [m/s^2]
+  int dimension = 3;
+  Real dt_base = 0;   // the step of level 0 [s]
+  int level_min = 0;  // the finest level: a tick is dt_base * 2^level_min
+};
+
+class MultilevelGroup {
+ public:
+  /// Takes the group's particles (slots in id order), its candidate pairs and its walls at `time`
+  /// [s], sets the levels (one per particle, each at least physics.level_min) and evaluates every
+  /// contact there without advancing its springs (h = 0), as a run's first evaluation does.
+  MultilevelGroup(State state, broadphase::CandidatePairs candidates, const Walls& walls,
+                  const MultilevelPhysics& physics, Real time, const std::vector<int>& levels);
+
+  /// New levels (at a time every old and new step divides); contacts keep their history and last force.
+  void set_levels(const std::vector<int>& levels);
+
+  /// Advances by `ticks` finest steps; every particle's step must divide it.
+  void advance(std::int64_t ticks);
+
+  const State& state() const { return state_; }
+  Real time() const { return time_; }
+  int level(std::size_t p) const { return level_[p]; }
+  /// Energy dissipated by contacts that ended [J].
+  Real ended_dissipation() const { return ended_dissipation_; }
+  /// The touching pair contacts, in key order.
+  PairContacts pair_contacts() const;
+  /// Particle-steps taken so far: each particle's steps, summed.
+  std::uint64_t particle_steps() const { return particle_steps_; }
+
+ private:
+  /// The force or torque a particle receives at one tick: the plain sum (for the next step's start
+  /// acceleration) and the sum weighted by h/2 of each contact's substeps.
+  struct TickLoad {
+    Vec3 force = Vec3::Zero(), weighted_force = Vec3::Zero();
+    Vec3 torque = Vec3::Zero(), weighted_torque = Vec3::Zero();
+  };
+  /// One particle's current step.
+  struct Step {
+    std::int64_t start = 0;  // tick, from the start of advance()
+    std::int64_t ticks = 1;
+    Vec3 x0, v0, w0;        // start position, velocity, spin
+    Vec3 a0, alpha0;        // start acceleration (with gravity) and angular acceleration
+    Vec3 impulse = Vec3::Zero(), moment = Vec3::Zero();                  // J [N s], K [N s^2]
+    Vec3 angular_impulse = Vec3::Zero(), angular_moment = Vec3::Zero();  // L [N m s], M [N m s^2]
+  };
+
+  std::size_t level_index(int level) const { return static_cast<std::size_t>(level - physics_.level_min); }
+  Real step_of_index(std::size_t index) const;
+  Real tick_length() const;
+  /// Evaluates the pair contacts of contact level index c and the wall contacts of the particles at
+  /// that level, in view_, with springs advancing by h.
+  void evaluate_level(std::size_t c, Real h);
+  /// Adds what the contacts of level index c hold to load_ (moments stored by the last evaluation, or
+  /// recomputed from the positions).
+  void add_level_loads(std::size_t c, bool use_stored_normal);
+  void add_load(ParticleIndex p, Vec3 force, Vec3 torque, Real weight);
+  /// Positions at the end of the steps of the particles at level index <= due, from their books.
+  void finish_positions(std::size_t due);
+  /// view_ positions at tick t: the particles due there as they are, the others as predicted.
+  void set_view_positions(std::int64_t t, std::size_t due);
+  /// view_ velocities and spins for the contacts of level index c at tick t.
+  void set_view_motion(std::int64_t t, std::size_t c);
+  /// After the evaluation at t: the due particles end their steps (and begin the next unless `last`),
+  /// the others book the loads.
+  void end_steps(std::int64_t t, std::size_t due, bool last);
+  void begin_step(ParticleIndex p, std::int64_t t);
+
+  MultilevelPhysics physics_;
+  State state_;
+  State view_;  // the state contacts are evaluated in: actual or predicted positions, mean velocities
+  broadphase::CandidatePairs candidates_;
+  Walls walls_;
+  Real time_ = 0;
+  Real time0_ = 0;  // at construction [s]
+  std::int64_t tick_origin_ = 0;  // ticks since construction at the start of the current advance
+  std::vector<int> level_;
+  bool rotation_ = false;
+  ContactParts parts_;
+
+  // Per contact level index: candidate pairs whose finer side is at that level, their persistent list
+  // and the compact list it was last rebuilt from.
+  std::vector<broadphase::CandidatePairs> level_candidates_;
+  std::vector<NeighbourContacts> neighbours_;
+  std::vector<PairContacts> rebuilt_from_;
+  // Per particle level index: its members (group slots, ascending), their sub-state for the wall
+  // contacts and those contacts (particle = index into the members).
+  std::vector<std::vector<ParticleIndex>> members_;
+  std::vector<State> member_state_;
+  std::vector<WallContacts> wall_contacts_;
+  std::vector<std::vector<std::uint32_t>> wall_start_;
+  ContactWorkspace workspace_;
+
+  std::vector<Step> step_;
+  std::vector<TickLoad> load_;
+  Real ended_dissipation_ = 0;
+  std::uint64_t particle_steps_ = 0;
+};
+
+}  // namespace dem

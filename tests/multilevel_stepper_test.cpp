@@ -1,0 +1,246 @@
+// Levels per particle inside one touching group (engine/multilevel_stepper.h; docs/design.md, Time):
+//  1. Every particle at one level is velocity Verlet: the World's fixed-step run of the same scene
+//     (friction, rolling resistance, a box, contacts forming and ending) agrees to round-off.
+//  2. Three levels in one touching group: linear momentum is conserved to round-off, whatever the
+//     levels, while the contacts change every velocity.
+//  3. A coarse particle held only by a finer one (a heavy ball on a light one on a floor) converges
+//     at second order to the all-fine reference as every step halves.
+//  4. Angular momentum about a fixed point across levels: its error shrinks as the steps halve.
+// Expected values come from conservation laws and from runs of the same physics at one level (the
+// World's fixed step, or this stepper at a converged step); none is copied from this stepper's output.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "engine/multilevel_stepper.h"
+#include "engine/world.h"
+#include "tests/contact_scenes.h"
+#include "tests/test_scenes.h"
+
+namespace dem {
+namespace {
+
+using namespace dem::test;
+
+/// Every pair of an n-particle group as candidates: no skin to outrun.
+broadphase::CandidatePairs all_pairs(std::size_t n) {
+  broadphase::CandidatePairs c;
+  c.row_start.assign(1, 0);
+  for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t b = a + 1; b < n; ++b) c.partner.push_back(static_cast<std::uint32_t>(b));
+    c.row_start.push_back(static_cast<std::uint32_t>(c.partner.size()));
+  }
+  return c;
+}
+
+MultilevelPhysics physics_of(const World& world, Real dt_base, int level_min) {
+  const WorldConfig& c = world.config();
+  const MaterialTable& m = world.materials();
+  MultilevelPhysics p;
+  p.materials = &m;
+  const RollingKind rolling = !m.any_rolling()                            ? RollingKind::none
+                              : c.model.rolling_mode == RollingMode::seed ? RollingKind::seed
+                                                                          : RollingKind::standard;
+  p.kernels = select_force_kernels(c.model.separation, m.any_friction(), rolling);
+  p.gravity = c.model.gravity;
+  p.dimension = c.model.dimension;
+  p.dt_base = dt_base;
+  p.level_min = level_min;
+  return p;
+}
+
+MultilevelGroup group_of(const World& world, Real dt_base, int level_min, const std::vector<int>& levels) {
+  return MultilevelGroup(world.state(), all_pairs(world.state().size()), world.walls(),
+                         physics_of(world, dt_base, level_min), world.time(), levels);
+}
+
+Vec3 linear_momentum(const State& s) {
+  Vec3 p = Vec3::Zero();
+  for (std::size_t q = 0; q < s.size(); ++q) p += s.velocity[q] / s.inv_mass[q];
+  return p;
+}
+
+Real momentum_scale(const State& s) {
+  Real sum = 0;
+  for (std::size_t q = 0; q < s.size(); ++q) sum += s.velocity[q].norm() / s.inv_mass[q];
+  return sum;
+}
+
+Vec3 angular_momentum(const State& s) {
+  Vec3 l = Vec3::Zero();
+  for (std::size_t q = 0; q < s.size(); ++q)
+    l += s.position[q].cross(s.velocity[q]) / s.inv_mass[q] + s.angular_velocity[q] / s.inv_inertia[q];
+  return l;
+}
+
+TEST(MultilevelStepper, EveryParticleAtOneLevelIsVelocityVerlet) {
+  WorldConfig c = falling_box_scene(3, 3, 3, 7);
+  c.threads = 1;
+  const Real dt = c.integrator.dt;
+  World world(c);
+  // Level 0 of a scale whose finest level is -2: ticks of dt / 4, steps of four ticks.
+  MultilevelGroup group = group_of(world, dt, -2, std::vector<int>(world.state().size(), 0));
+  const int rounds = 40, steps_per_round = 10;
+  std::size_t most_contacts = 0;
+  for (int r = 0; r < rounds; ++r) {
+    advance(world, steps_per_round);
+    group.advance(4 * steps_per_round);
+    most_contacts = std::max(most_contacts, world.pair_contacts().size());
+    ASSERT_EQ(group.pair_contacts().size(), world.pair_contacts().size()) << "round " << r;
+  }
+  ASSERT_GT(most_contacts, 3u);  // the scene has contacts to get right
+  const State& a = world.state();
+  const State& b = group.state();
+  Real dx = 0, dv = 0, dw = 0, v_max = 0;
+  for (std::size_t q = 0; q < a.size(); ++q) {
+    dx = std::max(dx, (a.position[q] - b.position[q]).norm());
+    dv = std::max(dv, (a.velocity[q] - b.velocity[q]).norm());
+    dw = std::max(dw, (a.angular_velocity[q] - b.angular_velocity[q]).norm() * a.radius[q]);
+    v_max = std::max(v_max, a.velocity[q].norm());
+  }
+  std::printf("one level against the World: |dx| %.3e m, |dv| %.3e m/s, R|dw| %.3e m/s (v_max %.3f m/s)\n", dx, dv,
+              dw, v_max);
+  // Round-off only: a wrong weight or moment would err by about a step's change, h v ~ 1e-5 m.
+  EXPECT_LT(dx, 1e-12);
+  EXPECT_LT(dv, 1e-9 * v_max);
+  EXPECT_LT(dw, 1e-9 * v_max);
+  EXPECT_EQ(group.particle_steps(), a.size() * rounds * steps_per_round);
+}
+
+/// Three spheres in a row, pressed together and spinning, in zero gravity, with friction.
+WorldConfig three_in_a_row() {
+  WorldConfig c = base_config(1e-5);
+  ContactConfig contact;
+  contact.normal_stiffness = 2e4;
+  contact.normal_damping = {DampingKind::restitution, 0.7};
+  contact.tangential_damping = {DampingKind::damping_ratio, 0.2};
+  contact.sliding_friction = 0.4;
+  c.contacts = {contact};
+  c.particles = {particle(Vec3(0, 0, 0), Vec3(0.3, 0.05, -0.02), 0.004, 2e-3),
+                 particle(Vec3(0.0095, 0.0004, 0), Vec3(0, 0.1, 0.03), 0.006, 8e-3),
+                 particle(Vec3(0.0215, -0.0005, 0.0003), Vec3(-0.2, -0.04, 0), 0.0065, 30e-3)};
+  c.particles[0].angular_velocity = Vec3(0, 0, 40);
+  c.particles[2].angular_velocity = Vec3(10, 0, -20);
+  return c;
+}
+
+TEST(MultilevelStepper, ThreeLevelsInOneTouchingGroupConserveLinearMomentum) {
+  World world(three_in_a_row());
+  const State start = world.state();
+  // Finest for the lightest, coarsest for the heaviest; the middle one is coarse to the first and
+  // fine to the third.
+  MultilevelGroup group = group_of(world, 1e-5, -2, {-2, -1, 0});
+  Real worst = 0;
+  std::size_t most_contacts = 0;
+  for (int r = 0; r < 300; ++r) {
+    group.advance(8);
+    const Vec3 dp = linear_momentum(group.state()) - linear_momentum(start);
+    worst = std::max(worst, dp.norm() / momentum_scale(start));
+    most_contacts = std::max(most_contacts, group.pair_contacts().size());
+  }
+  Real change = 0;
+  for (std::size_t q = 0; q < start.size(); ++q)
+    change = std::max(change, (group.state().velocity[q] - start.velocity[q]).norm());
+  std::printf("three levels: largest |dP| / sum m|v| %.3e; contacts at once up to %zu; largest |dv| %.3f m/s\n",
+              worst, most_contacts, change);
+  ASSERT_EQ(most_contacts, 2u);  // both contacts formed: one touching group across three levels
+  EXPECT_GT(change, 0.05);       // and they changed the motion
+  EXPECT_LT(worst, 1e-14);
+}
+
+/// A heavy ball resting on a light one on a floor, both compressed to 0.8 of their static overlap,
+/// released at rest: the heavy one rides on the light one's contact at the light one's level.
+/// `damping`: the contacts' damping ratio.
+WorldConfig heavy_on_light(Real dt, Real damping) {
+  WorldConfig c = base_config(dt);
+  c.model.gravity = Vec3(0, 0, -9.81);
+  ContactConfig contact;
+  contact.normal_stiffness = 1e4;
+  contact.normal_damping = {DampingKind::damping_ratio, damping};
+  contact.sliding_friction = 0;
+  c.contacts = {contact};
+  const Real small_r = 0.005, small_m = 1e-3, big_r = 0.02, big_m = 0.5, g = 9.81, k = 1e4;
+  const Real bottom = 0.8 * (big_m + small_m) * g / k, top = 0.8 * big_m * g / k;
+  const Real z_small = small_r - bottom;
+  const Real z_big = z_small + small_r + big_r - top;
+  c.particles = {particle(Vec3(0, 0, z_small), Vec3::Zero(), small_r, small_m),
+                 particle(Vec3(0, 0, z_big), Vec3::Zero(), big_r, big_m)};
+  c.walls = {plane(Vec3::Zero(), Vec3(0, 0, 1))};
+  return c;
+}
+
+/// The heavy ball's height after `duration` [s] with the light one at level -3 and the heavy one at
+/// `heavy_level`, dt_base given.
+Real heavy_height(Real dt_base, int heavy_level, Real duration, Real damping = 0) {
+  World world(heavy_on_light(dt_base, damping));
+  MultilevelGroup group = group_of(world, dt_base, -3, {-3, heavy_level});
+  const std::int64_t ticks = std::llround(duration / std::ldexp(dt_base, -3));
+  const std::int64_t round = std::int64_t{1} << (heavy_level + 3);
+  for (std::int64_t t = 0; t < ticks; t += round) group.advance(round);
+  EXPECT_EQ(group.pair_contacts().size(), 1u);  // never parted
+  return group.state().position[1].z();
+}
+
+TEST(MultilevelStepper, ACoarseParticleHeldByAFinerOneConvergesAtSecondOrder) {
+  const Real duration = 0.02;  // a third of the heavy ball's period on its two springs
+  // The reference: every particle at the finest level of the finest run, then once more halved.
+  const Real reference = heavy_height(2.5e-5 / 16, -3, duration);
+  const Real refined = heavy_height(2.5e-5 / 32, -3, duration);
+  // At larger steps the coarse side's error and the fine side's partly cancel (the mixed run errs
+  // less than the all-fine one at 4e-4): the order is judged where it has settled.
+  std::vector<Real> error;
+  for (Real dt_base : {1e-4, 5e-5, 2.5e-5}) error.push_back(std::abs(heavy_height(dt_base, 0, duration) - reference));
+  const Real all_fine = std::abs(heavy_height(2.5e-5, -3, duration) - reference);
+  std::printf("heavy on light: reference vs refined %.3e m; errors %.3e %.3e %.3e m (all at the fine level: %.3e "
+              "m); orders %.2f %.2f\n",
+              std::abs(reference - refined), error[0], error[1], error[2], all_fine, std::log2(error[0] / error[1]),
+              std::log2(error[1] / error[2]));
+  EXPECT_LT(std::abs(reference - refined), 0.1 * error[2]);  // the reference is converged enough
+  EXPECT_GT(std::log2(error[0] / error[1]), 1.7);
+  EXPECT_GT(std::log2(error[1] / error[2]), 1.7);
+  // Eight times the step for the heavy ball costs little accuracy: its prediction is good.
+  EXPECT_LT(error[2], 2 * all_fine);
+}
+
+TEST(MultilevelStepper, ADampedContactAcrossLevelsErrsAboutAsMuchAsAllAtTheFinerLevel) {
+  // The dashpot reads the heavy ball's velocity from its prediction; Verlet's dashpot lags by h / 2,
+  // so a lasting damped contact converges at first order, at one level or several.
+  const Real duration = 0.02, zeta = 0.1;
+  const Real reference = heavy_height(2.5e-5 / 16, -3, duration, zeta);
+  const Real refined = heavy_height(2.5e-5 / 32, -3, duration, zeta);
+  Real mixed[2], all_fine[2];
+  const Real dt_base[2] = {5e-5, 2.5e-5};
+  for (int k = 0; k < 2; ++k) {
+    mixed[k] = std::abs(heavy_height(dt_base[k], 0, duration, zeta) - reference);
+    all_fine[k] = std::abs(heavy_height(dt_base[k], -3, duration, zeta) - reference);
+  }
+  std::printf("damped heavy on light: reference vs refined %.3e m; mixed %.3e %.3e m, all fine %.3e %.3e m\n",
+              std::abs(reference - refined), mixed[0], mixed[1], all_fine[0], all_fine[1]);
+  EXPECT_LT(std::abs(reference - refined), 0.1 * all_fine[1]);
+  EXPECT_LT(mixed[1], 0.6 * mixed[0]);  // converges
+  for (int k = 0; k < 2; ++k) EXPECT_LT(mixed[k], 2 * all_fine[k]);
+}
+
+TEST(MultilevelStepper, AngularMomentumAcrossLevelsConvergesAsTheStepsHalve) {
+  std::vector<Real> drift;
+  for (Real dt_base : {2e-5, 1e-5, 5e-6}) {
+    WorldConfig c = three_in_a_row();
+    c.integrator.dt = dt_base;
+    World world(c);
+    const Vec3 l0 = angular_momentum(world.state());
+    MultilevelGroup group = group_of(world, dt_base, -2, {-2, -1, 0});
+    const std::int64_t rounds = std::llround(0.012 / dt_base);
+    for (std::int64_t r = 0; r < rounds; ++r) group.advance(4);
+    drift.push_back((angular_momentum(group.state()) - l0).norm() / l0.norm());
+  }
+  std::printf("angular momentum across levels: |dL| / |L| %.3e %.3e %.3e\n", drift[0], drift[1], drift[2]);
+  EXPECT_LT(drift[1], 0.6 * drift[0]);
+  EXPECT_LT(drift[2], 0.6 * drift[1]);
+  EXPECT_LT(drift[0], 1e-2);
+}
+
+}  // namespace
+}  // namespace dem
