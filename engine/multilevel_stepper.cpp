@@ -34,19 +34,29 @@ void spin_about_normal(Vec3& w) { w.x() = 0, w.y() = 0; }
 
 }  // namespace
 
-MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candidates, const Walls& walls,
-                                 const MultilevelPhysics& physics, Real time, const std::vector<int>& levels)
-    : physics_(physics), state_(std::move(state)), candidates_(std::move(candidates)), walls_(walls), time_(time),
+MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candidates, Walls& walls,
+                                 const MultilevelPhysics& physics, Real time, const std::vector<int>& levels,
+                                 const PairContacts& pairs, const WallContacts& wall_contacts)
+    : physics_(physics), state_(std::move(state)), candidates_(std::move(candidates)), walls_(&walls), time_(time),
       time0_(time) {
   DEM_ASSERT(candidates_.row_count() == state_.size());
   rotation_ = physics_.kernels.uses_rotation;
   parts_ = {physics_.materials->any_friction(), physics_.materials->any_rolling(), false};
-  level_.assign(state_.size(), physics_.level_min);
-  neighbours_.assign(1, NeighbourContacts{});
-  set_levels(levels);
-  // The first evaluation: every contact at the state as given, springs not advanced.
+  check_levels(levels);
+  level_ = levels;
+  for (std::size_t p = 0; p < state_.size(); ++p) state_.level[p] = static_cast<std::int8_t>(levels[p]);
+  distribute(pairs, wall_contacts);
   view_ = state_;
-  walls_.set_time(time_);
+  origin_ = state_.position;
+  excursion_.assign(state_.size(), 0);
+}
+
+MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candidates, Walls& walls,
+                                 const MultilevelPhysics& physics, Real time, const std::vector<int>& levels)
+    : MultilevelGroup(std::move(state), std::move(candidates), walls, physics, time, levels, PairContacts{},
+                      WallContacts{}) {
+  // The first evaluation: every contact at the state as given, springs not advanced.
+  walls_->set_time(time_);
   for (std::size_t c = 0; c < neighbours_.size(); ++c) evaluate_level(c, 0);
 }
 
@@ -56,35 +66,26 @@ Real MultilevelGroup::step_of_index(std::size_t index) const {
 
 Real MultilevelGroup::tick_length() const { return std::ldexp(physics_.dt_base, physics_.level_min); }
 
-void MultilevelGroup::set_levels(const std::vector<int>& levels) {
-  const std::size_t n = state_.size();
-  if (levels.size() != n) throw std::invalid_argument("MultilevelGroup: one level per particle");
-  std::size_t count = 1;
-  for (int l : levels) {
+void MultilevelGroup::check_levels(const std::vector<int>& levels) const {
+  if (levels.size() != state_.size()) throw std::invalid_argument("MultilevelGroup: one level per particle");
+  for (int l : levels)
     if (l < physics_.level_min || l > physics_.level_min + 40)
       throw std::invalid_argument("MultilevelGroup: levels must lie in [level_min, level_min + 40]");
-    count = std::max(count, level_index(l) + 1);
-  }
+}
 
-  // The touching pair contacts of every list, in key order: (key, list, slot, row).
-  std::vector<std::tuple<std::uint64_t, std::size_t, std::uint32_t, ParticleIndex>> pairs;
-  for (std::size_t c = 0; c < neighbours_.size(); ++c) {
-    const NeighbourContacts& nb = neighbours_[c];
-    if (nb.list.row_start.size() != n + 1) continue;
-    for (std::size_t a = 0; a < n; ++a)
-      for (std::uint32_t k = nb.list.row_start[a]; k < nb.list.row_start[a + 1]; ++k)
-        if (nb.touching[k] == touching_yes)
-          pairs.emplace_back(pair_key(state_.id[a], state_.id[nb.list.j[k]]), c, k, static_cast<ParticleIndex>(a));
-  }
-  std::sort(pairs.begin(), pairs.end());
-  // The touching wall contacts, in key order: (key, list, index).
-  std::vector<std::tuple<std::uint64_t, std::size_t, std::uint32_t>> touches;
-  for (std::size_t l = 0; l < wall_contacts_.size(); ++l)
-    for (std::uint32_t k = 0; k < wall_contacts_[l].size(); ++k) touches.emplace_back(wall_contacts_[l].key[k], l, k);
-  std::sort(touches.begin(), touches.end());
-
+void MultilevelGroup::set_levels(const std::vector<int>& levels) {
+  check_levels(levels);
+  const PairContacts pairs = pair_contacts();
+  const WallContacts walls = wall_contacts();
   level_ = levels;
-  for (std::size_t p = 0; p < n; ++p) state_.level[p] = static_cast<std::int8_t>(levels[p]);
+  for (std::size_t p = 0; p < state_.size(); ++p) state_.level[p] = static_cast<std::int8_t>(levels[p]);
+  distribute(pairs, walls);
+}
+
+void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& wall_contacts) {
+  const std::size_t n = state_.size();
+  std::size_t count = 1;
+  for (int l : level_) count = std::max(count, level_index(l) + 1);
   const auto contact_index = [&](std::size_t a, std::size_t b) {
     return level_index(std::min(level_[a], level_[b]));
   };
@@ -109,46 +110,40 @@ void MultilevelGroup::set_levels(const std::vector<int>& levels) {
     }
   }
 
-  // Each touching contact goes to the compact list of its new contact level, in key order, and the
-  // persistent lists are made from those.
+  // Each contact goes to the compact list of its contact level, in key order, and the persistent
+  // lists are made from those.
   std::vector<PairContacts> compact(count);
   for (PairContacts& c : compact) c.parts = parts_;
-  for (const auto& [key, list, slot, a] : pairs) {
-    const ParticleIndex b = neighbours_[list].list.j[slot];
-    PairContacts& c = compact[contact_index(a, b)];
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    PairContacts& c = compact[contact_index(pairs.i[k], pairs.j[k])];
     const std::size_t at = c.size();
     c.resize(at + 1);
-    copy_pair(neighbours_[list].list, slot, c, at);
-    c.i[at] = a;
-    c.key[at] = key;
+    copy_pair(pairs, k, c, at);
   }
-  std::vector<NeighbourContacts> fresh(count);
+  neighbours_.assign(count, NeighbourContacts{});
   for (std::size_t c = 0; c < count; ++c) {
     compact[c].index_rows(n);
-    rebuild_neighbours(state_, level_candidates_[c], compact[c], fresh[c]);
+    rebuild_neighbours(state_, level_candidates_[c], compact[c], neighbours_[c]);
   }
-  neighbours_ = std::move(fresh);
   rebuilt_from_ = std::move(compact);
 
   // Members, their states and wall contacts by particle level.
   std::vector<std::uint32_t> member_index(n);
-  const std::vector<std::vector<ParticleIndex>> old_members = std::move(members_);
   members_.assign(count, {});
   for (std::size_t p = 0; p < n; ++p) {
     std::vector<ParticleIndex>& m = members_[level_index(level_[p])];
     member_index[p] = static_cast<std::uint32_t>(m.size());
     m.push_back(static_cast<ParticleIndex>(p));
   }
-  std::vector<WallContacts> walls(count);
-  for (const auto& [key, list, k] : touches) {
-    const ParticleIndex slot = old_members[list][wall_contacts_[list].particle[k]];
-    WallContacts& w = walls[level_index(level_[slot])];
+  wall_contacts_.assign(count, WallContacts{});
+  for (std::size_t k = 0; k < wall_contacts.size(); ++k) {
+    const ParticleIndex p = wall_contacts.particle[k];
+    WallContacts& w = wall_contacts_[level_index(level_[p])];
     const std::size_t at = w.size();
     w.resize(at + 1);
-    copy_wall(wall_contacts_[list], k, w, at);
-    w.particle[at] = member_index[slot];
+    copy_wall(wall_contacts, k, w, at);
+    w.particle[at] = member_index[p];
   }
-  wall_contacts_ = std::move(walls);
   member_state_.assign(count, State{});
   wall_start_.assign(count, {});
   for (std::size_t l = 0; l < count; ++l) {
@@ -157,14 +152,30 @@ void MultilevelGroup::set_levels(const std::vector<int>& levels) {
   }
 }
 
+WallContacts MultilevelGroup::wall_contacts() const {
+  std::vector<std::pair<std::uint64_t, std::pair<std::size_t, std::uint32_t>>> order;
+  for (std::size_t l = 0; l < wall_contacts_.size(); ++l)
+    for (std::uint32_t k = 0; k < wall_contacts_[l].size(); ++k) order.push_back({wall_contacts_[l].key[k], {l, k}});
+  std::sort(order.begin(), order.end());
+  WallContacts out;
+  out.resize(order.size());
+  for (std::size_t q = 0; q < order.size(); ++q) {
+    const auto [l, k] = order[q].second;
+    copy_wall(wall_contacts_[l], k, out, q);
+    out.particle[q] = members_[l][wall_contacts_[l].particle[k]];
+  }
+  return out;
+}
+
 void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
   const DashpotVelocity dashpot{false, physics_.gravity, physics_.dimension};
   NeighbourContacts& nb = neighbours_[c];
   if (nb.size() > 0) {
     physics_.kernels.neighbour_forces(view_, *physics_.materials, nb, h, dashpot);
-    ended_dissipation_ += finish_ended_contacts(view_, nb, rebuilt_from_[c], nullptr);
+    ended_dissipation_ +=
+        finish_ended_contacts(view_, nb, rebuilt_from_[c], physics_.book_events ? &spectra_ : nullptr);
   }
-  if (members_[c].empty() || walls_.count() == 0) return;
+  if (members_[c].empty() || walls_->count() == 0) return;
   State& sub = member_state_[c];
   for (std::size_t q = 0; q < members_[c].size(); ++q) {
     const ParticleIndex p = members_[c][q];
@@ -173,8 +184,11 @@ void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
     sub.angular_velocity[q] = view_.angular_velocity[p];
   }
   ended_dissipation_ +=
-      update_wall_contacts(sub, walls_, *physics_.materials, wall_contacts_[c], workspace_, wall_start_[c]);
-  physics_.kernels.wall_forces(sub, *physics_.materials, walls_, wall_contacts_[c], h, dashpot);
+      update_wall_contacts(sub, *walls_, *physics_.materials, wall_contacts_[c], workspace_, wall_start_[c]);
+  if (physics_.book_events) spectra_.record_ended(workspace_.walls, wall_contacts_[c]);
+  physics_.kernels.wall_forces(sub, *physics_.materials, *walls_, wall_contacts_[c], h, dashpot);
+  // Work of moving walls, with the forces at the end of the step (a rectangle rule, as the fixed step's).
+  if (physics_.walls_move) wall_work_ += h * wall_power(*walls_, wall_contacts_[c]);
 }
 
 void MultilevelGroup::add_load(ParticleIndex p, Vec3 force, Vec3 torque, Real weight) {
@@ -261,6 +275,8 @@ void MultilevelGroup::set_view_positions(std::int64_t t, std::size_t due) {
     const Real tau = static_cast<Real>(t - s.start) * tick;
     view_.position[p] = s.x0 + tau * s.v0 + (0.5 * tau * tau) * s.a0;
   }
+  for (std::size_t p = 0; p < state_.size(); ++p)
+    excursion_[p] = std::max(excursion_[p], (view_.position[p] - origin_[p]).norm());
 }
 
 void MultilevelGroup::set_view_motion(std::int64_t t, std::size_t c) {
@@ -343,7 +359,7 @@ void MultilevelGroup::advance(std::int64_t ticks) {
     while (due + 1 < neighbours_.size() && t % (std::int64_t{1} << (due + 1)) == 0) ++due;
     finish_positions(due);
     set_view_positions(t, due);
-    walls_.set_time(time0_ + static_cast<Real>(tick_origin_ + t) * tick);
+    walls_->set_time(time0_ + static_cast<Real>(tick_origin_ + t) * tick);
     load_.assign(n, TickLoad{});
     for (std::size_t c = finest; c <= due; ++c) {
       set_view_motion(t, c);

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "broadphase/candidate_pairs.h"
+#include "engine/collision_spectra.h"
 #include "engine/contacts.h"
 #include "engine/forces.h"
 #include "engine/neighbour_contacts.h"
@@ -39,15 +40,23 @@ struct MultilevelPhysics {
   int dimension = 3;
   Real dt_base = 0;   // the step of level 0 [s]
   int level_min = 0;  // the finest level: a tick is dt_base * 2^level_min
+  bool walls_move = false;   // book the moving walls' work (wall_work)
+  bool book_events = false;  // book ended contacts for collision spectra (spectra)
 };
 
 class MultilevelGroup {
  public:
-  /// Takes the group's particles (slots in id order), its candidate pairs and its walls at `time`
-  /// [s], sets the levels (one per particle, each at least physics.level_min) and evaluates every
+  /// Takes the group's particles (slots in id order), its candidate pairs and its walls (which it
+  /// sets to each tick's time; they must outlive it) at `time` [s], sets the levels (one per particle, each at least physics.level_min) and evaluates every
   /// contact there without advancing its springs (h = 0), as a run's first evaluation does.
-  MultilevelGroup(State state, broadphase::CandidatePairs candidates, const Walls& walls,
+  MultilevelGroup(State state, broadphase::CandidatePairs candidates, Walls& walls,
                   const MultilevelPhysics& physics, Real time, const std::vector<int>& levels);
+  /// The same with the group's contacts as they stand (with their history and the forces of their
+  /// last evaluation, at `time`): `pairs` a compact list in key order, `wall_contacts` in key order,
+  /// both indexed by the group's slots. Nothing is evaluated.
+  MultilevelGroup(State state, broadphase::CandidatePairs candidates, Walls& walls,
+                  const MultilevelPhysics& physics, Real time, const std::vector<int>& levels,
+                  const PairContacts& pairs, const WallContacts& wall_contacts);
 
   /// New levels (at a time every old and new step divides); contacts keep their history and last force.
   void set_levels(const std::vector<int>& levels);
@@ -60,8 +69,16 @@ class MultilevelGroup {
   int level(std::size_t p) const { return level_[p]; }
   /// Energy dissipated by contacts that ended [J].
   Real ended_dissipation() const { return ended_dissipation_; }
-  /// The touching pair contacts, in key order.
+  /// The touching pair contacts, in key order, with row_start indexed.
   PairContacts pair_contacts() const;
+  /// The wall contacts, in key order (so by particle).
+  WallContacts wall_contacts() const;
+  /// Work of the moving walls on the particles so far, each level's contacts times its step [J].
+  Real wall_work() const { return wall_work_; }
+  /// Per particle: the farthest it was, actual or predicted at any tick, from where it started [m].
+  const std::vector<Real>& excursion() const { return excursion_; }
+  /// Contacts that ended so far (physics.book_events).
+  const CollisionSpectra& spectra() const { return spectra_; }
   /// Particle-steps taken so far: each particle's steps, summed.
   std::uint64_t particle_steps() const { return particle_steps_; }
 
@@ -82,6 +99,9 @@ class MultilevelGroup {
     Vec3 angular_impulse = Vec3::Zero(), angular_moment = Vec3::Zero();  // L [N m s], M [N m s^2]
   };
 
+  void check_levels(const std::vector<int>& levels) const;
+  /// Puts the contacts (compact, key order, group slots) into the lists of the current levels.
+  void distribute(const PairContacts& pairs, const WallContacts& wall_contacts);
   std::size_t level_index(int level) const { return static_cast<std::size_t>(level - physics_.level_min); }
   Real step_of_index(std::size_t index) const;
   Real tick_length() const;
@@ -107,7 +127,7 @@ class MultilevelGroup {
   State state_;
   State view_;  // the state contacts are evaluated in: actual or predicted positions, mean velocities
   broadphase::CandidatePairs candidates_;
-  Walls walls_;
+  Walls* walls_;
   Real time_ = 0;
   Real time0_ = 0;  // at construction [s]
   std::int64_t tick_origin_ = 0;  // ticks since construction at the start of the current advance
@@ -131,6 +151,10 @@ class MultilevelGroup {
   std::vector<Step> step_;
   std::vector<TickLoad> load_;
   Real ended_dissipation_ = 0;
+  Real wall_work_ = 0;
+  std::vector<Real> excursion_;
+  std::vector<Vec3> origin_;
+  CollisionSpectra spectra_;
   std::uint64_t particle_steps_ = 0;
 };
 

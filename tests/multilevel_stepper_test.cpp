@@ -2,7 +2,7 @@
 //  1. Every particle at one level is velocity Verlet: the World's fixed-step run of the same scene
 //     (friction, rolling resistance, a box, contacts forming and ending) agrees to round-off.
 //  2. Three levels in one touching group: linear momentum is conserved to round-off, whatever the
-//     levels, while the contacts change every velocity.
+//     levels and as they change hands, while the contacts change every velocity.
 //  3. A coarse particle held only by a finer one (a heavy ball on a light one on a floor) converges
 //     at second order to the all-fine reference as every step halves.
 //  4. Angular momentum about a fixed point across levels: its error shrinks as the steps halve.
@@ -52,8 +52,9 @@ MultilevelPhysics physics_of(const World& world, Real dt_base, int level_min) {
   return p;
 }
 
-MultilevelGroup group_of(const World& world, Real dt_base, int level_min, const std::vector<int>& levels) {
-  return MultilevelGroup(world.state(), all_pairs(world.state().size()), world.walls(),
+/// `walls`: a copy of the World's, which the group sets to its times.
+MultilevelGroup group_of(const World& world, Walls& walls, Real dt_base, int level_min, const std::vector<int>& levels) {
+  return MultilevelGroup(world.state(), all_pairs(world.state().size()), walls,
                          physics_of(world, dt_base, level_min), world.time(), levels);
 }
 
@@ -81,8 +82,9 @@ TEST(MultilevelStepper, EveryParticleAtOneLevelIsVelocityVerlet) {
   c.threads = 1;
   const Real dt = c.integrator.dt;
   World world(c);
+  Walls walls = world.walls();
   // Level 0 of a scale whose finest level is -2: ticks of dt / 4, steps of four ticks.
-  MultilevelGroup group = group_of(world, dt, -2, std::vector<int>(world.state().size(), 0));
+  MultilevelGroup group = group_of(world, walls, dt, -2, std::vector<int>(world.state().size(), 0));
   const int rounds = 40, steps_per_round = 10;
   std::size_t most_contacts = 0;
   for (int r = 0; r < rounds; ++r) {
@@ -129,13 +131,26 @@ WorldConfig three_in_a_row() {
 
 TEST(MultilevelStepper, ThreeLevelsInOneTouchingGroupConserveLinearMomentum) {
   World world(three_in_a_row());
+  Walls walls = world.walls();
   const State start = world.state();
   // Finest for the lightest, coarsest for the heaviest; the middle one is coarse to the first and
   // fine to the third.
-  MultilevelGroup group = group_of(world, 1e-5, -2, {-2, -1, 0});
+  MultilevelGroup group = group_of(world, walls, 1e-5, -2, {-2, -1, 0});
   Real worst = 0;
   std::size_t most_contacts = 0;
+  const std::vector<std::vector<int>> turns{{-2, -1, 0}, {0, -2, -1}, {-1, 0, -2}};
   for (int r = 0; r < 300; ++r) {
+    // Every 50 rounds the levels change hands: the contacts move between lists with their history.
+    if (r % 50 == 0) {
+      const PairContacts before = group.pair_contacts();
+      group.set_levels(turns[(r / 50) % 3]);
+      const PairContacts after = group.pair_contacts();
+      ASSERT_EQ(after.key, before.key);
+      for (std::size_t k = 0; k < before.size(); ++k) {
+        EXPECT_EQ(after.tangential_spring[k], before.tangential_spring[k]);
+        EXPECT_EQ(after.force[k], before.force[k]);
+      }
+    }
     group.advance(8);
     const Vec3 dp = linear_momentum(group.state()) - linear_momentum(start);
     worst = std::max(worst, dp.norm() / momentum_scale(start));
@@ -176,7 +191,8 @@ WorldConfig heavy_on_light(Real dt, Real damping) {
 /// `heavy_level`, dt_base given.
 Real heavy_height(Real dt_base, int heavy_level, Real duration, Real damping = 0) {
   World world(heavy_on_light(dt_base, damping));
-  MultilevelGroup group = group_of(world, dt_base, -3, {-3, heavy_level});
+  Walls walls = world.walls();
+  MultilevelGroup group = group_of(world, walls, dt_base, -3, {-3, heavy_level});
   const std::int64_t ticks = std::llround(duration / std::ldexp(dt_base, -3));
   const std::int64_t round = std::int64_t{1} << (heavy_level + 3);
   for (std::int64_t t = 0; t < ticks; t += round) group.advance(round);
@@ -230,8 +246,9 @@ TEST(MultilevelStepper, AngularMomentumAcrossLevelsConvergesAsTheStepsHalve) {
     WorldConfig c = three_in_a_row();
     c.integrator.dt = dt_base;
     World world(c);
+    Walls walls = world.walls();
     const Vec3 l0 = angular_momentum(world.state());
-    MultilevelGroup group = group_of(world, dt_base, -2, {-2, -1, 0});
+    MultilevelGroup group = group_of(world, walls, dt_base, -2, {-2, -1, 0});
     const std::int64_t rounds = std::llround(0.012 / dt_base);
     for (std::int64_t r = 0; r < rounds; ++r) group.advance(4);
     drift.push_back((angular_momentum(group.state()) - l0).norm() / l0.norm());
