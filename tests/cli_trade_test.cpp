@@ -10,7 +10,9 @@
 //    damped contact onset makes Verlet first order) is reported; a converged one is marked so;
 //  - a reference loaded from the reference.csv of an earlier run gives the same errors;
 //  - observables get a noise floor from perturbed reference runs;
-//  - a mill is measured by its power draw and collision spectrum under both controls.
+//  - a mill is measured by its power draw and collision spectrum under both controls;
+//  - the recommendation.csv agrees with trade.csv (the choice recomputed here from its rows), a target
+//    replaces the noise floor, diverged rows are never chosen, and bad --target items exit 2.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -234,6 +236,155 @@ TEST(CliTrade, ObservablesGetANoiseFloorFromPerturbedReferences) {
   const Csv metrics = read_csv(dir.path() / "trade_metrics.txt");
   ASSERT_EQ(metrics.rows.size(), 2u);
   EXPECT_EQ(metrics.rows[0].at("unit"), "J");
+}
+
+/// The recommendation recomputed from trade.csv for `metric` against `threshold`: the row index of the
+/// cheapest finished row within it (fewest particle-steps, then smaller error, then earlier), restricted
+/// to `control` unless empty; -1 when none. NaN threshold: none qualifies.
+int cheapest_within(const Csv& trade_csv, const std::string& metric, double threshold,
+                    const std::string& control = "") {
+  int best = -1;
+  for (std::size_t k = 0; k < trade_csv.rows.size(); ++k) {
+    const auto& row = trade_csv.rows[k];
+    if (row.at("status") != "ok" || (!control.empty() && row.at("control") != control)) continue;
+    const double error = trade_csv.number(k, metric + "_error");
+    if (!(error <= threshold)) continue;
+    const auto b = static_cast<std::size_t>(best);
+    if (best < 0 || trade_csv.number(k, "particle_steps") < trade_csv.number(b, "particle_steps") ||
+        (trade_csv.number(k, "particle_steps") == trade_csv.number(b, "particle_steps") &&
+         error < trade_csv.number(b, metric + "_error")))
+      best = static_cast<int>(k);
+  }
+  return best;
+}
+
+/// The finished row of smallest error for `metric`; -1 when none finished.
+int most_accurate(const Csv& trade_csv, const std::string& metric) {
+  const std::string column = metric + "_error";
+  int best = -1;
+  for (std::size_t k = 0; k < trade_csv.rows.size(); ++k)
+    if (trade_csv.rows[k].at("status") == "ok" &&
+        (best < 0 || trade_csv.number(k, column) < trade_csv.number(static_cast<std::size_t>(best), column)))
+      best = static_cast<int>(k);
+  return best;
+}
+
+/// Checks each row of recommendation.csv against the choice recomputed from trade.csv, with the
+/// given targets (metric -> value); returns the outcome per metric.
+std::map<std::string, std::string> check_recommendation(const fs::path& out,
+                                                        const std::map<std::string, double>& targets) {
+  const Csv trade_csv = read_csv(out / "trade.csv");
+  const Csv rec = read_csv(out / "recommendation.csv");
+  std::map<std::string, std::string> outcomes;
+  for (std::size_t r = 0; r < rec.rows.size(); ++r) {
+    const auto& row = rec.rows[r];
+    const std::string metric = row.at("metric");
+    SCOPED_TRACE(metric);
+    double threshold = NAN;
+    std::string criterion = "none";
+    if (targets.count(metric)) {
+      threshold = targets.at(metric), criterion = "target";
+    } else if (trade_csv.rows.at(0).count(metric + "_noise")) {
+      threshold = trade_csv.number(0, metric + "_noise"), criterion = "noise";
+    }
+    EXPECT_EQ(row.at("criterion"), criterion);
+    const int chosen = cheapest_within(trade_csv, metric, threshold);
+    const int shown = chosen >= 0 ? chosen : criterion == "none" ? -1 : most_accurate(trade_csv, metric);
+    EXPECT_EQ(row.at("outcome"), criterion == "none" ? "needs_target" : chosen >= 0 ? "chosen" : "none_within");
+    if (shown >= 0) {
+      const auto& expected = trade_csv.rows[static_cast<std::size_t>(shown)];
+      for (const char* column : {"control", "dt", "tolerance", "particle_steps"})
+        EXPECT_EQ(row.at(column), expected.at(column)) << column;
+      EXPECT_EQ(row.at("error"), expected.at(metric + "_error"));
+    } else {
+      EXPECT_EQ(row.at("control"), "");
+    }
+    const int fixed = cheapest_within(trade_csv, metric, threshold, "fixed");
+    const int doubling = cheapest_within(trade_csv, metric, threshold, "doubling");
+    EXPECT_EQ(row.at("cheapest_fixed_particle_steps"),
+              fixed < 0 ? "" : trade_csv.rows[static_cast<std::size_t>(fixed)].at("particle_steps"));
+    EXPECT_EQ(row.at("cheapest_doubling_particle_steps"),
+              doubling < 0 ? "" : trade_csv.rows[static_cast<std::size_t>(doubling)].at("particle_steps"));
+    outcomes[metric] = row.at("outcome");
+  }
+  return outcomes;
+}
+
+TEST(CliTrade, TheRecommendationIsTheCheapestRowOfTradeCsvWithinTheTargetOrTheNoiseFloor) {
+  TempDir dir;
+  // head_on measured by observables (the gap as in ObservablesGetANoiseFloorFromPerturbedReferences):
+  // kinetic_energy against a target the cheapest row misses, dissipated_energy against one every row
+  // meets (so the cheapest, not the most accurate, is chosen), bed_height against its noise floor.
+  const Result r = trade("scenes/head_on.toml --fixed 1e-4,5e-5 --tol 1e-2,1e-3,1e-4 --no-plot "
+                         "--set 'particles[0].position=[-0.050537,0,0]' "
+                         "--set 'accuracy.metrics=[\"dissipated_energy\", \"kinetic_energy\", \"bed_height\"]' "
+                         "--target kinetic_energy=1e-4,dissipated_energy=1e-3 --out " + dir.path().string(),
+                         dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(dir.path() / "recommendation.csv"));
+  const std::map<std::string, std::string> outcomes =
+      check_recommendation(dir.path(), {{"kinetic_energy", 1e-4}, {"dissipated_energy", 1e-3}});
+  ASSERT_EQ(outcomes.size(), 3u);
+  for (const auto& [metric, outcome] : outcomes) EXPECT_EQ(outcome, "chosen") << metric;
+  // The choices are neither merely the cheapest row nor merely the most accurate one.
+  const Csv trade_csv = read_csv(dir.path() / "trade.csv");
+  const Csv rec = read_csv(dir.path() / "recommendation.csv");
+  ASSERT_EQ(rec.rows.size(), 3u);
+  ASSERT_EQ(rec.rows[0].at("metric"), "dissipated_energy");
+  ASSERT_EQ(rec.rows[1].at("metric"), "bed_height");
+  ASSERT_EQ(rec.rows[2].at("metric"), "kinetic_energy");
+  double cheapest = INFINITY;
+  for (std::size_t k = 0; k < trade_csv.rows.size(); ++k)
+    cheapest = std::min(cheapest, trade_csv.number(k, "particle_steps"));
+  EXPECT_GT(rec.number(2, "particle_steps"), cheapest);
+  const int best = most_accurate(trade_csv, "dissipated_energy");
+  ASSERT_GE(best, 0);
+  EXPECT_GT(rec.number(0, "error"), trade_csv.number(static_cast<std::size_t>(best), "dissipated_energy_error"));
+  EXPECT_EQ(rec.rows[1].at("criterion"), "noise");
+  const std::string setting = rec.rows[2].at("control") == "fixed" ? "fixed dt = " + rec.rows[2].at("dt")
+                                                                   : "step doubling tol = " + rec.rows[2].at("tolerance");
+  EXPECT_NE(r.out.find("kinetic_energy: " + setting), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("(noise floor "), std::string::npos) << r.out;
+}
+
+TEST(CliTrade, WithoutANoiseFloorTheRecommendationAsksForATargetAndSkipsDivergedRows) {
+  TempDir dir;
+  // The seed slope compares trajectories (no noise runs); its 0.1 s step diverges, and a target every
+  // finite error meets still does not choose it.
+  // A target no row meets names the most accurate row instead.
+  const Result r = trade("scenes/seed_slope.toml --fixed 0.1,0.01 --tol 1e-2 --no-plot --target position_max=1e9 "
+                         "--target velocity_max=1e-12 --out " + dir.path().string(),
+                         dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::map<std::string, std::string> outcomes =
+      check_recommendation(dir.path(), {{"position_max", 1e9}, {"velocity_max", 1e-12}});
+  EXPECT_EQ(outcomes.at("position_max"), "chosen");
+  EXPECT_EQ(outcomes.at("velocity_max"), "none_within");
+  EXPECT_NE(r.out.find("velocity_max: no setting is within the target of 1e-12 m/s; the most accurate is"),
+            std::string::npos) << r.out;
+  for (const char* metric : {"position_rms", "velocity_rms"})
+    EXPECT_EQ(outcomes.at(metric), "needs_target") << metric;
+  const Csv rec = read_csv(dir.path() / "recommendation.csv");
+  EXPECT_EQ(rec.rows.at(0).at("dt"), "0.01");
+  EXPECT_NE(r.out.find("give --target velocity_rms=VALUE"), std::string::npos) << r.out;
+}
+
+TEST(CliTrade, ABadTargetIsRejectedWithExitCode2AndTheValidMetrics) {
+  TempDir dir;
+  const std::string run = "scenes/head_on.toml --fixed 1e-4 --no-plot --out " + dir.path().string();
+  const std::string valid = "position_max, position_rms, velocity_max, velocity_rms";
+  Result r = trade(run + " --target bed_height=1e-3", dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--target"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("unknown metric 'bed_height'"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(valid), std::string::npos) << r.err;
+  r = trade(run + " --target position_max=1e-3,velocity_max=fast", dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("'velocity_max=fast': 'fast' is not a finite number"), std::string::npos) << r.err;
+  r = trade(run + " --target position_max=-1e-3", dir);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("'-1e-3' is negative"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path() / "trade.csv"));  // rejected before any run
 }
 
 TEST(CliTrade, CallsThePlotScriptWhenMatplotlibIsThere) {

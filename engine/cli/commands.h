@@ -32,6 +32,7 @@ struct TradeOptions {
   int threads = -1;                    // -1: the scene's setting
   double until = -1;                   // -1: the scene's run.until [s]
   std::vector<std::string> overrides;  // --set key.path=value
+  std::vector<std::string> targets;    // --target METRIC=VALUE: an absolute error to recommend against
   bool quiet = false;
   bool plot = true;                    // draw trade.png with plot_trade.py
 };

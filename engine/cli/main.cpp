@@ -63,6 +63,10 @@ int main(int argc, char** argv) {
   trade_cmd->add_option("--until", trade.until, "simulated end time [s] (default: the scene's run.until)")
       ->check(CLI::PositiveNumber);
   trade_cmd->add_option("--set", trade.overrides, "override a scene value: key.path=value (repeatable)");
+  trade_cmd->add_option("--target", trade.targets,
+                        "recommend the cheapest setting within this absolute error instead of the noise floor: "
+                        "METRIC=VALUE, comma-separated or repeated (units in trade_metrics.txt)")
+      ->delimiter(',');
   trade_cmd->add_flag("--quiet", trade.quiet, "no progress lines or table");
   trade_cmd->add_flag("!--no-plot", trade.plot, "do not draw trade.png (plot_trade.py)");
 

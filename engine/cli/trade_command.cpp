@@ -5,6 +5,8 @@
 //                        and <metric>_noise when perturbed reference runs gave a noise floor
 //   trade_metrics.txt    one row per metric column: unit, reference error estimate, noise, meaning (CSV)
 //   trade_reference.txt  how the reference was made (CSV of key,value)
+//   recommendation.csv   one row per metric: the cheapest setting within the --target or the noise
+//                        floor (trade_recommendation.h), and the cheapest fixed and doubling ones
 //   reference.csv        the reference's samples, loadable by a later `dem trade --reference FILE`
 //   trade.png            by bench/plot_trade.py when Python and matplotlib are there
 //
@@ -34,12 +36,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "engine/cli/commands.h"
 #include "engine/cli/plot_script.h"
+#include "engine/cli/trade_recommendation.h"
 #include "engine/cli/trade_support.h"
 #include "engine/input_error.h"
 #include "engine/atomic_file.h"
@@ -280,15 +284,14 @@ void write_trade_metrics(const fs::path& out, const std::vector<std::string>& co
   s << "metric,unit,reference_error,noise,reference_converged,meaning\n";
   for (std::size_t j = 0; j < columns.size(); ++j) {
     const std::string& c = columns[j];
-    std::string unit = c.rfind("position", 0) == 0 ? "m" : c.rfind("velocity", 0) == 0 ? "m/s" : "";
     std::string meaning;
     if (c.rfind("position", 0) == 0 || c.rfind("velocity", 0) == 0)
       meaning = std::string(c.find("max") != std::string::npos ? "largest" : "root mean square") + " distance of " +
                 (c[0] == 'p' ? "positions" : "velocities") + " from the reference over particles and sample times";
     for (int o = 0; o < observable_count; ++o)
-      if (c == observable_names[o]) unit = observable_units[o], meaning = std::string("absolute error of the ") + observable_meanings[o];
-    if (c == spectrum_name) unit = "1", meaning = spectrum_meaning;
-    s << c << ',' << unit << ',' << number(q.error[j]) << ',' << number(q.noise[j]) << ',' << q.converged[j] << ','
+      if (c == observable_names[o]) meaning = std::string("absolute error of the ") + observable_meanings[o];
+    if (c == spectrum_name) meaning = spectrum_meaning;
+    s << c << ',' << unit_of(c) << ',' << number(q.error[j]) << ',' << number(q.noise[j]) << ',' << q.converged[j] << ','
       << meaning << '\n';
   }
   write_file_atomically(out / "trade_metrics.txt", s.str());
@@ -336,6 +339,123 @@ void print_table(const fs::path& out, const std::vector<Row>& rows, const std::v
   std::printf("metrics (units and meaning): %s\n", (out / "trade_metrics.txt").string().c_str());
 }
 
+/// The rows as the recommendation weighs them.
+std::vector<CostedRow> costed_rows(const std::vector<Row>& rows) {
+  std::vector<CostedRow> costed;
+  for (const Row& row : rows)
+    costed.push_back({row.control, row.dt, row.tolerance, row.result.counters.particle_steps, row.result.wall_time,
+                      row.result.status == "ok", row.errors});
+  return costed;
+}
+
+/// Per metric column: the cheapest row within its target, else within its noise floor.
+std::vector<Choice> recommend_all(const std::vector<CostedRow>& rows, const std::vector<std::string>& columns,
+                                  const ReferenceQuality& q, const std::map<std::string, double>& targets) {
+  std::vector<Choice> choices;
+  for (std::size_t j = 0; j < columns.size(); ++j) {
+    const auto target = targets.find(columns[j]);
+    choices.push_back(recommend(rows, j, q.have_noise ? q.noise[j] : nan,
+                                target == targets.end() ? std::nullopt : std::optional<double>(target->second)));
+  }
+  return choices;
+}
+
+/// "fixed dt = 5e-05 s" or "step doubling tol = 0.001".
+std::string setting_text(const CostedRow& row) {
+  return row.control == "fixed" ? "fixed dt = " + number(row.dt) + " s" : "step doubling tol = " + number(row.tolerance);
+}
+
+/// An error or threshold with its unit ("3.1e-07 J"; a relative distance has none).
+std::string amount(double v, const std::string& unit) {
+  char text[40];
+  std::snprintf(text, sizeof text, "%.3g", v);
+  return unit == "1" ? std::string(text) : std::string(text) + " " + unit;
+}
+
+/// recommendation.csv: per metric, the outcome (chosen: the row is the cheapest within the threshold;
+/// none_within: no row is, the row is the most accurate; needs_target: no floor and no target, no row)
+/// and the cheapest fixed and doubling rows within the threshold.
+void write_recommendation(const fs::path& out, const std::string& method, const std::vector<CostedRow>& rows,
+                          const std::vector<std::string>& columns, const std::vector<Choice>& choices) {
+  std::ostringstream s;
+  s << "metric,unit,criterion,threshold,outcome,control,method,dt,tolerance,particle_steps,wall_time,error,"
+       "cheapest_fixed_dt,cheapest_fixed_particle_steps,cheapest_doubling_tolerance,cheapest_doubling_particle_steps\n";
+  for (std::size_t j = 0; j < columns.size(); ++j) {
+    const Choice& c = choices[j];
+    const bool judged = c.criterion != Criterion::none;
+    s << columns[j] << ',' << unit_of(columns[j]) << ',' << criterion_name(c.criterion) << ','
+      << (judged ? number(c.threshold) : "") << ',' << (!judged ? "needs_target" : c.chosen ? "chosen" : "none_within");
+    const std::optional<std::size_t> shown = c.chosen ? c.chosen : judged ? c.most_accurate : std::nullopt;
+    if (shown) {
+      const CostedRow& r = rows[*shown];
+      s << ',' << r.control << ',' << method << ',' << number(r.dt) << ','
+        << (r.control == "fixed" ? "" : number(r.tolerance)) << ',' << r.particle_steps << ',' << number(r.wall_time)
+        << ',' << number(r.errors[j]);
+    } else {
+      s << ",,,,,,,";
+    }
+    if (c.cheapest_fixed)
+      s << ',' << number(rows[*c.cheapest_fixed].dt) << ',' << rows[*c.cheapest_fixed].particle_steps;
+    else
+      s << ",,";
+    if (c.cheapest_doubling)
+      s << ',' << number(rows[*c.cheapest_doubling].tolerance) << ',' << rows[*c.cheapest_doubling].particle_steps;
+    else
+      s << ",,";
+    s << '\n';
+  }
+  write_file_atomically(out / "recommendation.csv", s.str());
+}
+
+/// The recommendation on stdout: per metric, the chosen setting and how it compares with the cheapest
+/// of the other control; or what missed, or that a --target is needed.
+void print_recommendation(const fs::path& out, const std::string& method, const std::vector<CostedRow>& rows,
+                          const std::vector<std::string>& columns, const std::vector<Choice>& choices,
+                          const std::string& why_no_floor) {
+  std::printf("\nrecommendation (%s; cost in particle-steps, which do not depend on the machine; wall time beside):\n",
+              method.c_str());
+  for (std::size_t j = 0; j < columns.size(); ++j) {
+    const Choice& c = choices[j];
+    const std::string& metric = columns[j];
+    const std::string unit = unit_of(metric);
+    if (c.criterion == Criterion::none) {
+      std::printf("  %s: no noise floor (%s): give --target %s=VALUE (an absolute error%s%s)\n", metric.c_str(),
+                  why_no_floor.c_str(), metric.c_str(), unit == "1" ? "" : " in ", unit == "1" ? "" : unit.c_str());
+      continue;
+    }
+    const std::string against = std::string(c.criterion == Criterion::target ? "target" : "noise floor");
+    const std::string threshold = amount(c.threshold, unit);
+    if (!c.chosen) {
+      if (c.most_accurate)
+        std::printf("  %s: no setting is within the %s of %s; the most accurate is %s (error %s)\n", metric.c_str(),
+                    against.c_str(), threshold.c_str(), setting_text(rows[*c.most_accurate]).c_str(),
+                    amount(rows[*c.most_accurate].errors[j], unit).c_str());
+      else
+        std::printf("  %s: no setting is within the %s of %s; none finished\n", metric.c_str(), against.c_str(),
+                    threshold.c_str());
+      continue;
+    }
+    const CostedRow& chosen = rows[*c.chosen];
+    std::printf("  %s: %s: %llu particle-steps, %.3g s, error %s (%s %s)\n", metric.c_str(),
+                setting_text(chosen).c_str(), static_cast<unsigned long long>(chosen.particle_steps), chosen.wall_time,
+                amount(chosen.errors[j], unit).c_str(), against.c_str(), threshold.c_str());
+    const bool fixed = chosen.control == "fixed";
+    const std::optional<std::size_t> other = fixed ? c.cheapest_doubling : c.cheapest_fixed;
+    const char* other_kind = fixed ? "step doubling tolerance" : "fixed step";
+    const bool other_measured =
+        std::any_of(rows.begin(), rows.end(), [&](const CostedRow& r) { return (r.control == "fixed") != fixed; });
+    if (other) {
+      const double ratio = static_cast<double>(chosen.particle_steps) /
+                           static_cast<double>(std::max<std::uint64_t>(rows[*other].particle_steps, 1));
+      std::printf("      it needs %.2gx the particle-steps of %s, the cheapest %s within the %s\n", ratio,
+                  setting_text(rows[*other]).c_str(), other_kind, against.c_str());
+    }
+    else if (other_measured)
+      std::printf("      no %s is within the %s\n", other_kind, against.c_str());
+  }
+  std::printf("recommendation per metric: %s\n", (out / "recommendation.csv").string().c_str());
+}
+
 }  // namespace
 
 int trade_command(const TradeOptions& options) {
@@ -346,6 +466,7 @@ int trade_command(const TradeOptions& options) {
   fs::create_directories(out);
   const Plan plan = make_plan(scene, options);
   const std::vector<std::string> columns = plan.metrics.columns();
+  const std::map<std::string, double> targets = parse_targets(options.targets, columns);
   const double end_time = static_cast<double>(plan.count) * plan.interval;
   say(options.quiet, "dem trade %s: %s, %zu particles, compared every %.6g s up to %.6g s; metrics: %s\n",
       scene.name.c_str(), method.c_str(), scene.world.particles.size(), plan.interval, end_time,
@@ -368,7 +489,15 @@ int trade_command(const TradeOptions& options) {
   write_trade_csv(out, method, rows, columns, quality);
   write_trade_metrics(out, columns, quality);
   write_trade_reference(out, scene, method, reference, plan, quality);
-  if (!options.quiet) print_table(out, rows, columns, quality);
+  const std::vector<CostedRow> costed = costed_rows(rows);
+  const std::vector<Choice> choices = recommend_all(costed, columns, quality, targets);
+  write_recommendation(out, method, costed, columns, choices);
+  if (!options.quiet) {
+    print_table(out, rows, columns, quality);
+    print_recommendation(out, method, costed, columns, choices,
+                         reference_from_file(options) ? "the reference file has no noise runs"
+                                                      : "perturbed references are run for observables only");
+  }
   std::fflush(stdout);
   for (const std::string& w : quality.warnings) std::fprintf(stderr, "dem trade: warning: %s\n", w.c_str());
   std::fflush(stderr);

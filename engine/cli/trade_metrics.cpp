@@ -45,6 +45,14 @@ Metrics choose_metrics(const Scene& scene) {
   return m;
 }
 
+std::string unit_of(const std::string& column) {
+  if (column.rfind("position", 0) == 0) return "m";
+  if (column.rfind("velocity", 0) == 0) return "m/s";
+  for (int o = 0; o < observable_count; ++o)
+    if (column == observable_names[o]) return observable_units[o];
+  return column == spectrum_name ? "1" : "";
+}
+
 /// Errors of `run` against `reference`, one per metric column; infinite for a run that did not finish.
 std::vector<double> errors_of(const std::vector<Sample>& run, bool finished, const std::vector<Sample>& reference,
                               const Metrics& metrics) {

@@ -65,6 +65,8 @@ struct Metrics {
 
 /// The metrics of [accuracy], else chosen by the scene's size, walls and spectra.
 Metrics choose_metrics(const Scene& scene);
+/// The unit of a metric column's error (trade_metrics.txt).
+std::string unit_of(const std::string& column);
 
 // ---------------------------------------------------------------------------------------------------
 // Runs (trade_runs.cpp)
