@@ -44,6 +44,18 @@ void CollisionSpectra::record(const ContactEvents& events) {
   for (const ContactEvents::Event& e : events.events()) record_event(e.kind, e.value);
 }
 
+void CollisionSpectra::add(const CollisionSpectra& other) {
+  for (int kind = 0; kind < kind_count; ++kind) {
+    for (int q = 0; q < quantity_count; ++q)
+      for (int b = 0; b < bin_count; ++b) {
+        histogram_[kind][q].count[b] += other.histogram_[kind][q].count[b];
+        histogram_[kind][q].energy[b] += other.histogram_[kind][q].energy[b];
+      }
+    events_[kind] += other.events_[kind];
+  }
+  dissipated_ += other.dissipated_;
+}
+
 void CollisionSpectra::record_event(Kind kind, const double (&value)[quantity_count]) {
   for (int q = 0; q < quantity_count; ++q) {
     Histogram& h = histogram_[kind][q];

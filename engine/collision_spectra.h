@@ -36,6 +36,8 @@ class CollisionSpectra {
   void record(Kind kind, const ContactHistory& history, Real work, Real elastic);
   /// Books the events of a log, in its order.
   void record(const ContactEvents& events);
+  /// Adds another's booked events, bin by bin.
+  void add(const CollisionSpectra& other);
 
   /// Total energy the booked events dissipated (normal and tangential) [J].
   double dissipated() const;

@@ -142,6 +142,9 @@ struct IntegratorConfig {
   // contacts); true, that velocity plus the previous forces' second half kick (second order, a tighter
   // stability limit: engine/forces.h DashpotVelocity). The exact stepper ignores it.
   bool predicted_dashpot = false;
+  // Step doubling with velocity Verlet: false, an island steps at one level (its finest member's);
+  // true, a level per particle inside the island (engine/particle_level_doubling.h).
+  bool particle_levels = false;
 };
 
 struct BroadphaseConfig {

@@ -14,7 +14,7 @@ namespace dem {
 struct IslandJob {
   IslandState island;
   broadphase::CandidatePairs candidates;
-  int level = 0;  // the level of its next step, after the round
+  std::vector<int> levels;  // per member: its level, in: at the round's start, out: of its next step
 };
 
 inline constexpr std::int32_t in_free_flight = -1;

@@ -162,7 +162,10 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
   PairContacts& c = nb.list;
   DEM_ASSERT(c.parts.friction == Law::friction && c.parts.rolling == Law::rolling);
   const bool books = c.parts.books;
-  parallel_for(c.row_start.size() - 1, [&](std::size_t a) {
+  DEM_ASSERT(nb.visited_rows.empty() || nb.left_start.empty());
+  const bool sparse = !nb.visited_rows.empty();
+  parallel_for(sparse ? nb.visited_rows.size() : c.row_start.size() - 1, [&](std::size_t r) {
+    const std::size_t a = sparse ? nb.visited_rows[r] : r;
     Real ended = 0;
     std::uint8_t any_ended = 0;
     Real deepest = 0;

@@ -41,7 +41,7 @@ MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candida
       time0_(time) {
   DEM_ASSERT(candidates_.row_count() == state_.size());
   rotation_ = physics_.kernels.uses_rotation;
-  parts_ = {physics_.materials->any_friction(), physics_.materials->any_rolling(), false};
+  parts_ = {physics_.materials->any_friction(), physics_.materials->any_rolling(), physics_.book_events};
   check_levels(levels);
   level_ = levels;
   for (std::size_t p = 0; p < state_.size(); ++p) state_.level[p] = static_cast<std::int8_t>(levels[p]);
@@ -49,6 +49,7 @@ MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candida
   view_ = state_;
   origin_ = state_.position;
   excursion_.assign(state_.size(), 0);
+  miss_.assign(state_.size(), 0);
 }
 
 MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candidates, Walls& walls,
@@ -124,8 +125,27 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
   for (std::size_t c = 0; c < count; ++c) {
     compact[c].index_rows(n);
     rebuild_neighbours(state_, level_candidates_[c], compact[c], neighbours_[c]);
+    if (!neighbours_[c].left_start.empty()) throw std::logic_error("MultilevelGroup: a touching pair is no candidate");
   }
   rebuilt_from_ = std::move(compact);
+  // Per contact level: the rows that hold its pairs, and the coarser particles in them.
+  rows_.assign(count, {});
+  participants_.assign(count, {});
+  std::vector<std::uint8_t> seen(n);
+  for (std::size_t c = 0; c < count; ++c) {
+    const broadphase::CandidatePairs& cand = level_candidates_[c];
+    std::fill(seen.begin(), seen.end(), 0);
+    for (std::size_t a = 0; a < n; ++a) {
+      if (cand.row_start[a] == cand.row_start[a + 1]) continue;
+      rows_[c].push_back(static_cast<ParticleIndex>(a));
+      neighbours_[c].visited_rows.push_back(static_cast<std::uint32_t>(a));
+      for (std::uint32_t k = cand.row_start[a]; k < cand.row_start[a + 1]; ++k)
+        for (const std::size_t p : {a, std::size_t{cand.partner[k]}})
+          if (level_index(level_[p]) > c) seen[p] = 1;
+    }
+    for (std::size_t p = 0; p < n; ++p)
+      if (seen[p]) participants_[c].push_back(static_cast<ParticleIndex>(p));
+  }
 
   // Members, their states and wall contacts by particle level.
   std::vector<std::uint32_t> member_index(n);
@@ -194,6 +214,10 @@ void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
 void MultilevelGroup::add_load(ParticleIndex p, Vec3 force, Vec3 torque, Real weight) {
   if (state_.inv_mass[p] == 0) return;
   if (physics_.dimension == 2) flatten_to_plane(force), spin_about_normal(torque);
+  if (!loaded_[p]) {
+    loaded_[p] = 1;
+    loaded_list_.push_back(p);
+  }
   TickLoad& l = load_[p];
   l.force += force;
   l.weighted_force += weight * force;
@@ -203,15 +227,22 @@ void MultilevelGroup::add_load(ParticleIndex p, Vec3 force, Vec3 torque, Real we
   }
 }
 
+void MultilevelGroup::clear_loads() {
+  for (ParticleIndex p : loaded_list_) {
+    load_[p] = TickLoad{};
+    loaded_[p] = 0;
+  }
+  loaded_list_.clear();
+}
+
 void MultilevelGroup::add_level_loads(std::size_t c, bool use_stored_normal) {
   const Real weight = 0.5 * step_of_index(c);
   const NeighbourContacts& nb = neighbours_[c];
   const PairContacts& list = nb.list;
-  for (std::size_t a = 0; a < state_.size(); ++a) {
-    if (list.row_start.size() != state_.size() + 1) break;
-    for (std::uint32_t k = list.row_start[a]; k < list.row_start[a + 1]; ++k) {
+  for (ParticleIndex i : rows_[c]) {
+    for (std::uint32_t k = list.row_start[i]; k < list.row_start[i + 1]; ++k) {
       if (nb.touching[k] != touching_yes) continue;
-      const ParticleIndex i = static_cast<ParticleIndex>(a), j = list.j[k];
+      const ParticleIndex j = list.j[k];
       const Vec3& f = list.force[k];
       Vec3 torque_i = Vec3::Zero(), torque_j = Vec3::Zero();
       if (rotation_) {
@@ -252,88 +283,97 @@ void MultilevelGroup::begin_step(ParticleIndex p, std::int64_t t) {
 }
 
 void MultilevelGroup::finish_positions(std::size_t due) {
-  for (std::size_t p = 0; p < state_.size(); ++p) {
-    if (level_index(level_[p]) > due) continue;
-    const Step& s = step_[p];
-    const Real h = step_of_index(level_index(level_[p]));
-    const Real inv_m = state_.inv_mass[p];
-    Vec3 x = s.x0 + h * s.v0;
-    if (inv_m != 0) x += (0.5 * h * h) * physics_.gravity + inv_m * s.moment;
-    if (physics_.dimension == 2) flatten_to_plane(x);
-    state_.position[p] = x;
+  for (std::size_t index = 0; index <= due && index < members_.size(); ++index) {
+    const Real h = step_of_index(index);
+    for (ParticleIndex p : members_[index]) {
+      const Step& s = step_[p];
+      const Real inv_m = state_.inv_mass[p];
+      Vec3 x = s.x0 + h * s.v0;
+      if (inv_m != 0) x += (0.5 * h * h) * physics_.gravity + inv_m * s.moment;
+      if (physics_.dimension == 2) flatten_to_plane(x);
+      state_.position[p] = x;
+      miss_[p] = std::max(miss_[p], (x - (s.x0 + h * s.v0 + (0.5 * h * h) * s.a0)).norm());
+      view_.position[p] = x;
+      excursion_[p] = std::max(excursion_[p], (x - origin_[p]).norm());
+    }
   }
 }
 
 void MultilevelGroup::set_view_positions(std::int64_t t, std::size_t due) {
+  // The particles due at t are in view_ already (finish_positions); their coarser partners, predicted.
   const Real tick = tick_length();
-  for (std::size_t p = 0; p < state_.size(); ++p) {
-    if (level_index(level_[p]) <= due) {
-      view_.position[p] = state_.position[p];
-      continue;
+  for (std::size_t c = 0; c <= due && c < participants_.size(); ++c)
+    for (ParticleIndex p : participants_[c]) {
+      if (level_index(level_[p]) <= due) continue;
+      const Step& s = step_[p];
+      const Real tau = static_cast<Real>(t - s.start) * tick;
+      view_.position[p] = s.x0 + tau * s.v0 + (0.5 * tau * tau) * s.a0;
+      excursion_[p] = std::max(excursion_[p], (view_.position[p] - origin_[p]).norm());
     }
-    const Step& s = step_[p];
-    const Real tau = static_cast<Real>(t - s.start) * tick;
-    view_.position[p] = s.x0 + tau * s.v0 + (0.5 * tau * tau) * s.a0;
-  }
-  for (std::size_t p = 0; p < state_.size(); ++p)
-    excursion_[p] = std::max(excursion_[p], (view_.position[p] - origin_[p]).norm());
 }
 
 void MultilevelGroup::set_view_motion(std::int64_t t, std::size_t c) {
   const Real tick = tick_length();
   const Real h_c = step_of_index(c);
-  for (std::size_t p = 0; p < state_.size(); ++p) {
-    const std::size_t index = level_index(level_[p]);
-    if (index < c) continue;  // finer than every contact of this level: not read
+  const auto plane = [&](ParticleIndex p) {
+    if (physics_.dimension == 2) flatten_to_plane(view_.velocity[p]), spin_about_normal(view_.angular_velocity[p]);
+  };
+  // The finer sides: their mean velocity over the step just ended, (x - x0) / H.
+  for (ParticleIndex p : members_[c]) {
     const Step& s = step_[p];
     const Real inv_m = state_.inv_mass[p];
-    if (index == c) {
-      // The finer side: its mean velocity over the step just ended, (x - x0) / H.
-      Vec3 v = s.v0;
-      if (inv_m != 0) v += (0.5 * h_c) * physics_.gravity + (inv_m / h_c) * s.moment;
-      view_.velocity[p] = v;
-      view_.angular_velocity[p] = s.w0 + (state_.inv_inertia[p] / h_c) * s.angular_moment;
-    } else {
-      // A coarser side: its prediction's mean over the substep [t - h_c, t].
-      const Real mid = static_cast<Real>(t - s.start) * tick - 0.5 * h_c;
-      view_.velocity[p] = s.v0 + mid * s.a0;
-      view_.angular_velocity[p] = s.w0 + mid * s.alpha0;
-    }
-    if (physics_.dimension == 2) flatten_to_plane(view_.velocity[p]), spin_about_normal(view_.angular_velocity[p]);
+    Vec3 v = s.v0;
+    if (inv_m != 0) v += (0.5 * h_c) * physics_.gravity + (inv_m / h_c) * s.moment;
+    view_.velocity[p] = v;
+    view_.angular_velocity[p] = s.w0 + (state_.inv_inertia[p] / h_c) * s.angular_moment;
+    plane(p);
+  }
+  // The coarser sides: their prediction's mean over the substep [t - h_c, t].
+  for (ParticleIndex p : participants_[c]) {
+    const Step& s = step_[p];
+    const Real mid = static_cast<Real>(t - s.start) * tick - 0.5 * h_c;
+    view_.velocity[p] = s.v0 + mid * s.a0;
+    view_.angular_velocity[p] = s.w0 + mid * s.alpha0;
+    plane(p);
   }
 }
 
 void MultilevelGroup::end_steps(std::int64_t t, std::size_t due, bool last) {
   const Real tick = tick_length();
-  for (std::size_t p = 0; p < state_.size(); ++p) {
+  // Mid-step: the force at t bounds two substeps of its contact, each weighing h/2.
+  for (ParticleIndex p : loaded_list_) {
+    if (level_index(level_[p]) <= due) continue;
     Step& s = step_[p];
     const TickLoad& l = load_[p];
-    if (level_index(level_[p]) > due) {
-      // Mid-step: the force at t bounds two substeps of its contact, each weighing h/2.
-      const Real remaining = static_cast<Real>(s.start + s.ticks - t) * tick;
-      s.impulse += 2 * l.weighted_force;
-      s.moment += (2 * remaining) * l.weighted_force;
-      s.angular_impulse += 2 * l.weighted_torque;
-      s.angular_moment += (2 * remaining) * l.weighted_torque;
-      continue;
-    }
-    const Real h = step_of_index(level_index(level_[p]));
-    const Real inv_m = state_.inv_mass[p];
-    if (inv_m != 0) {
-      Vec3 v = s.v0 + h * physics_.gravity + inv_m * (s.impulse + l.weighted_force);
-      Vec3 w = s.w0 + state_.inv_inertia[p] * (s.angular_impulse + l.weighted_torque);
-      if (physics_.dimension == 2) flatten_to_plane(v), spin_about_normal(w);
-      state_.velocity[p] = v;
-      if (rotation_) state_.angular_velocity[p] = w;
-    }
-    ++particle_steps_;
-    if (last) {
-      state_.force[p] = l.force;
-      state_.torque[p] = l.torque;
-    } else {
-      begin_step(static_cast<ParticleIndex>(p), t);
+    const Real remaining = static_cast<Real>(s.start + s.ticks - t) * tick;
+    s.impulse += 2 * l.weighted_force;
+    s.moment += (2 * remaining) * l.weighted_force;
+    s.angular_impulse += 2 * l.weighted_torque;
+    s.angular_moment += (2 * remaining) * l.weighted_torque;
+  }
+  for (std::size_t index = 0; index <= due && index < members_.size(); ++index) {
+    const Real h = step_of_index(index);
+    for (ParticleIndex p : members_[index]) {
+      Step& s = step_[p];
+      const TickLoad& l = load_[p];
+      const Real inv_m = state_.inv_mass[p];
+      if (inv_m != 0) {
+        Vec3 v = s.v0 + h * physics_.gravity + inv_m * (s.impulse + l.weighted_force);
+        Vec3 w = s.w0 + state_.inv_inertia[p] * (s.angular_impulse + l.weighted_torque);
+        if (physics_.dimension == 2) flatten_to_plane(v), spin_about_normal(w);
+        state_.velocity[p] = v;
+        if (rotation_) state_.angular_velocity[p] = w;
+      }
+      ++particle_steps_;
+      if (last) {
+        state_.force[p] = l.force;
+        state_.torque[p] = l.torque;
+      } else {
+        begin_step(p, t);
+      }
     }
   }
+  clear_loads();
 }
 
 void MultilevelGroup::advance(std::int64_t ticks) {
@@ -348,9 +388,12 @@ void MultilevelGroup::advance(std::int64_t ticks) {
   if (n == 0) return;
   // Every particle starts a step now, from the forces its contacts hold (the last evaluation, here).
   load_.assign(n, TickLoad{});
+  loaded_.assign(n, 0);
+  loaded_list_.clear();
   for (std::size_t c = 0; c < neighbours_.size(); ++c) add_level_loads(c, false);
   step_.resize(n);
   for (std::size_t p = 0; p < n; ++p) begin_step(static_cast<ParticleIndex>(p), 0);
+  clear_loads();
   const std::int64_t stride = std::int64_t{1} << finest;
   const Real tick = tick_length();
   for (std::int64_t t = stride; t <= ticks; t += stride) {
@@ -360,7 +403,6 @@ void MultilevelGroup::advance(std::int64_t ticks) {
     finish_positions(due);
     set_view_positions(t, due);
     walls_->set_time(time0_ + static_cast<Real>(tick_origin_ + t) * tick);
-    load_.assign(n, TickLoad{});
     for (std::size_t c = finest; c <= due; ++c) {
       set_view_motion(t, c);
       evaluate_level(c, step_of_index(c));

@@ -77,6 +77,9 @@ class MultilevelGroup {
   Real wall_work() const { return wall_work_; }
   /// Per particle: the farthest it was, actual or predicted at any tick, from where it started [m].
   const std::vector<Real>& excursion() const { return excursion_; }
+  /// Per particle: the largest distance between where its prediction put it at the end of one of its
+  /// steps and where its booked forces took it [m]; 0 unless finer partners booked onto it.
+  const std::vector<Real>& prediction_miss() const { return miss_; }
   /// Contacts that ended so far (physics.book_events).
   const CollisionSpectra& spectra() const { return spectra_; }
   /// Particle-steps taken so far: each particle's steps, summed.
@@ -112,9 +115,11 @@ class MultilevelGroup {
   /// recomputed from the positions).
   void add_level_loads(std::size_t c, bool use_stored_normal);
   void add_load(ParticleIndex p, Vec3 force, Vec3 torque, Real weight);
-  /// Positions at the end of the steps of the particles at level index <= due, from their books.
+  void clear_loads();
+  /// Positions at the end of the steps of the particles at level index <= due, from their books (in
+  /// state_ and view_).
   void finish_positions(std::size_t due);
-  /// view_ positions at tick t: the particles due there as they are, the others as predicted.
+  /// view_ positions at tick t of the coarser partners of the particles due there, as predicted.
   void set_view_positions(std::int64_t t, std::size_t due);
   /// view_ velocities and spins for the contacts of level index c at tick t.
   void set_view_motion(std::int64_t t, std::size_t c);
@@ -148,11 +153,19 @@ class MultilevelGroup {
   std::vector<std::vector<std::uint32_t>> wall_start_;
   ContactWorkspace workspace_;
 
+  // Per contact level index: the rows holding its candidate pairs, and the particles coarser than it
+  // among their sides (the ones predicted when its contacts are evaluated).
+  std::vector<std::vector<ParticleIndex>> rows_;
+  std::vector<std::vector<ParticleIndex>> participants_;
+
   std::vector<Step> step_;
-  std::vector<TickLoad> load_;
+  std::vector<TickLoad> load_;                 // zero but for the particles in loaded_list_
+  std::vector<std::uint8_t> loaded_;
+  std::vector<ParticleIndex> loaded_list_;
   Real ended_dissipation_ = 0;
   Real wall_work_ = 0;
   std::vector<Real> excursion_;
+  std::vector<Real> miss_;
   std::vector<Vec3> origin_;
   CollisionSpectra spectra_;
   std::uint64_t particle_steps_ = 0;

@@ -60,6 +60,7 @@ const std::vector<SceneKey> schema = {
     {"integrator.tolerance", "–"}, {"integrator.level_min", ""}, {"integrator.level_max", ""},
     {"integrator.safety", "–"}, {"integrator.velocity_weight", "–"}, {"integrator.dx_min", "–"},
     {"integrator.richardson", ""}, {"integrator.error_per_unit_step", ""}, {"integrator.predicted_dashpot", ""},
+    {"integrator.particle_levels", ""},
     // [run], [output], [broadphase], [accuracy]
     {"run.until", "s"}, {"run.threads", ""}, {"run.stop_kinetic_energy", "J"}, {"run.stop_check_after", "s"},
     {"output.interval", "s"}, {"output.snapshot_interval", "s"}, {"output.settled_file", ""},

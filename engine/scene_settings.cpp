@@ -44,6 +44,12 @@ bool read_integrator(TableReader& top, Scene& scene) {
   c.richardson = r.boolean("richardson", c.richardson);
   c.error_per_unit_step = r.boolean("error_per_unit_step", c.error_per_unit_step);
   c.predicted_dashpot = r.boolean("predicted_dashpot", c.predicted_dashpot);
+  c.particle_levels = r.boolean("particle_levels", c.particle_levels);
+  if (c.particle_levels && c.method == Method::exact)
+    r.fail("particle_levels", "needs method = \"verlet\": the exact stepper keeps one level per touching set (a "
+                              "pair's flow needs both sides live)");
+  if (c.particle_levels && c.predicted_dashpot)
+    r.fail("particle_levels", "does not combine with predicted_dashpot yet: set one of them to false");
   r.finish();
   return level_max_given;
 }

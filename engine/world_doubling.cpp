@@ -19,6 +19,7 @@
 
 #include "engine/doubling_work.h"
 #include "engine/parallel.h"
+#include "engine/particle_level_doubling.h"
 #include "engine/world.h"
 
 namespace dem {
@@ -246,6 +247,7 @@ void gather_island(const Islands& islands, const std::vector<std::uint32_t>& loc
   job.island.adjacency.wall_start.clear();
   job.island.ended_dissipation = job.island.exact_dissipated = job.island.wall_work = 0;
   job.island.events.clear();
+  job.island.level_spectra.clear();
   job.island.exact_deepest = Worst{};
   job.island.unresolved = 0;
   std::vector<ExactHistoryRecord>& history = job.island.exact_history;
@@ -279,6 +281,7 @@ void World::run_islands(const std::vector<std::uint32_t>& which, std::int64_t ti
   const Real h = scheduler_.step_of_level(level);
   d.round_walls.set_time(t0 + static_cast<Real>(tick) * scheduler_.step_of_level(settings.level_min));
   const Real bulge = 0.125 * gravity_.norm() * h * h;  // farthest a parabola strays from its chord
+  const bool per_particle = c.particle_levels && c.method == Method::verlet;
   // Particles in free flight take the round in one step; the other islands get a job.
   parallel_for(which.size(), [&](std::size_t w) {
     const std::uint32_t k = which[w];
@@ -314,10 +317,16 @@ void World::run_islands(const std::vector<std::uint32_t>& which, std::int64_t ti
         // tangential and rolling history, by particle id.
         gather_island(d.islands, d.local_index, k, state_, candidates_, pairs_, wall_contacts_, adjacency_.wall_start,
                       c.method == Method::verlet, c.method == Method::exact ? &exact_work_.history : nullptr, job);
-        int start_level = scheduler_.level_max();
-        for (std::int8_t l : job.island.state.level) start_level = std::min<int>(start_level, l);
-        job.level = advance_island(job.island, job.candidates, d.physics, settings, d.scratch.local(), t0, tick, end,
-                                   start_level, d.counters.local());
+        std::vector<int>& levels = job.levels;
+        levels.assign(job.island.state.level.begin(), job.island.state.level.end());
+        if (per_particle) {
+          advance_island_per_particle(job.island, job.candidates, d.physics, settings, d.scratch.local().walls, t0,
+                                      tick, end, levels, d.counters.local());
+        } else {
+          const int start_level = *std::min_element(levels.begin(), levels.end());
+          levels.assign(levels.size(), advance_island(job.island, job.candidates, d.physics, settings,
+                                                      d.scratch.local(), t0, tick, end, start_level, d.counters.local()));
+        }
         // Scatter the particles; contacts stay in the job until the round is accepted.
         const ParticleIndex* member = d.islands.member.data() + d.islands.start[k];
         const State& t = job.island.state;
@@ -326,7 +335,7 @@ void World::run_islands(const std::vector<std::uint32_t>& which, std::int64_t ti
           d.next.position[a] = t.position[q], d.next.velocity[a] = t.velocity[q];
           d.next.angular_velocity[a] = t.angular_velocity[q];
           d.next.force[a] = t.force[q], d.next.torque[a] = t.torque[q];
-          d.next.level[a] = static_cast<std::int8_t>(job.level);
+          d.next.level[a] = static_cast<std::int8_t>(levels[q]);
           d.excursion[a] = job.island.excursion[q];
         }
       },
@@ -412,6 +421,8 @@ void World::finish_round() {
     const IslandJob& job = d.jobs[d.job_of[k]];
     ended_dissipation_ += job.island.ended_dissipation;
     if (spectra_) spectra_->record(job.island.events);
+    if (spectra_)
+      for (const CollisionSpectra& s : job.island.level_spectra) spectra_->add(s);
     exact_dissipated_ += job.island.exact_dissipated;
     if (job.island.exact_deepest.value > deepest_seen_.value) {  // the first of equals, in island order
       deepest_seen_ = job.island.exact_deepest;

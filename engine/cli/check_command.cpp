@@ -42,6 +42,11 @@ int check_command(const std::string& path, const std::vector<std::string>& overr
     std::printf("    levels %d .. %d: steps from %.4g s to %.4g s (dt_base %g s), sync interval %.4g s\n",
                 ic.level_min, ic.level_max, checked_step(ic), std::ldexp(dt_base, ic.level_max), dt_base,
                 std::ldexp(dt_base, ic.level_max));
+    std::printf("    %s\n", ic.particle_levels ? "a level per particle inside each touching group (particle_levels)"
+                                                 : exact ? "one level per touching group (the exact stepper's pair flows "
+                                                           "need both sides live)"
+                                                         : "one level per touching group, its finest member's "
+                                                           "(particle_levels = false)");
   } else {
     std::printf("  integrator: %s, fixed dt = %g s, until %g s\n", exact ? "exact" : "verlet", ic.dt,
                 scene.run.until);

@@ -22,6 +22,7 @@ JsonObject settings_json(const Scene& scene, const World& world) {
       .add("dt", scene.world.integrator.dt)
       .add("tolerance", scene.world.integrator.tolerance)
       .add("error_per_unit_step", scene.world.integrator.error_per_unit_step)
+      .add("particle_levels", scene.world.integrator.particle_levels)
       .add("level_min", scene.world.integrator.level_min)
       .add("level_max", scene.world.integrator.level_max)
       .add("until", scene.run.until)

@@ -1,0 +1,166 @@
+#include "engine/particle_level_doubling.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "engine/multilevel_stepper.h"
+#include "engine/step_control.h"
+
+namespace dem {
+namespace {
+
+std::int64_t ticks_of_level(int level, int level_min) { return std::int64_t{1} << (level - level_min); }
+
+/// The island's state after an accepted trial, its contacts and books; `origin` holds the members'
+/// positions at the round's start, for their excursions.
+void take_trial(const MultilevelGroup& trial, bool book_events, const std::vector<Vec3>& origin, IslandState& island) {
+  State& s = island.state;
+  const State& t = trial.state();
+  for (std::size_t q = 0; q < s.size(); ++q)
+    island.excursion[q] = std::max(island.excursion[q], (s.position[q] - origin[q]).norm() + trial.excursion()[q]);
+  s.position = t.position;
+  s.velocity = t.velocity;
+  s.angular_velocity = t.angular_velocity;
+  s.force = t.force;
+  s.torque = t.torque;
+  island.pairs = trial.pair_contacts();
+  island.walls = trial.wall_contacts();
+  build_pair_adjacency(s.size(), island.pairs, island.adjacency);
+  std::vector<std::uint32_t>& start = island.adjacency.wall_start;
+  start.assign(s.size() + 1, 0);
+  for (std::size_t k = 0; k < island.walls.size(); ++k) ++start[island.walls.particle[k] + 1];
+  for (std::size_t p = 0; p < s.size(); ++p) start[p + 1] += start[p];
+  island.ended_dissipation += trial.ended_dissipation();
+  island.wall_work += trial.wall_work();
+  if (book_events) {
+    if (island.level_spectra.empty()) island.level_spectra.emplace_back();
+    island.level_spectra.front().add(trial.spectra());
+  }
+}
+
+}  // namespace
+
+void advance_island_per_particle(IslandState& island, const broadphase::CandidatePairs& candidates,
+                                 const IslandPhysics& physics, const DoublingSettings& settings, Walls& walls, Real t0,
+                                 std::int64_t begin, std::int64_t end, std::vector<int>& levels,
+                                 DoublingCounters& counters) {
+  const std::size_t n = island.state.size();
+  const int level_min = settings.level_min;
+  const Real finest = std::ldexp(settings.dt_base, level_min);
+  const std::size_t level_count = static_cast<std::size_t>(settings.level_max - level_min + 1);
+  if (counters.histogram.size() < level_count) counters.histogram.resize(level_count, 0);
+  MultilevelPhysics mp;
+  mp.materials = physics.materials;
+  mp.kernels = physics.kernels;
+  mp.gravity = physics.gravity;
+  mp.dimension = physics.dimension;
+  mp.dt_base = settings.dt_base;
+  mp.level_min = level_min;
+  mp.walls_move = physics.walls_move;
+  mp.book_events = physics.book_events;
+  const std::vector<Vec3> origin = island.state.position;
+  island.excursion.assign(n, 0);
+  island.level_spectra.clear();
+  std::vector<int> halves(n);
+  std::vector<LevelDecision> decision(n);
+  std::vector<Real> errors(n);
+  // Chunk by chunk: a chunk is one step of the island's coarsest member, so levels change (and
+  // promote) at every chunk, not once per round.
+  for (std::int64_t tick = begin; tick < end;) {
+    // Each member's step starts here on its own grid and ends within the round.
+    int highest = level_min;
+    for (int& l : levels) {
+      l = std::clamp(l, level_min, settings.level_max);
+      while (l > level_min && (tick % ticks_of_level(l, level_min) != 0 || tick + ticks_of_level(l, level_min) > end))
+        --l;
+      highest = std::max(highest, l);
+    }
+    const Real t = t0 + static_cast<Real>(tick) * finest;
+    // No member above the level at which an approaching pair of the island could be stepped over.
+    if (highest > settings.contact_level) {
+      walls.set_time(t);
+      const int cap = anticipation_level(island, candidates, walls, physics.gravity, settings.dt_base, highest,
+                                         settings.contact_level);
+      highest = level_min;
+      for (int& l : levels) highest = std::max(highest, l = std::min(l, cap));
+    }
+    const std::int64_t ticks = ticks_of_level(highest, level_min);
+    const Real chunk = static_cast<Real>(ticks) * finest;
+    const Real reference_time = settings.reference_time > 0 ? settings.reference_time : chunk;
+    const State& start = island.state;
+    for (;;) {
+      for (std::size_t q = 0; q < n; ++q) halves[q] = std::max(levels[q] - 1, level_min);
+      MultilevelGroup full(start, candidates, walls, mp, t, levels, island.pairs, island.walls);
+      full.advance(ticks);
+      MultilevelGroup half(start, candidates, walls, mp, t, halves, island.pairs, island.walls);
+      half.advance(ticks);
+      const std::uint64_t steps = full.particle_steps() + half.particle_steps();
+      counters.particle_steps += steps;
+      counters.force_evaluations += steps;
+      bool accepted = true;
+      for (std::size_t q = 0; q < n; ++q) {
+        if (start.inv_mass[q] == 0) {
+          decision[q] = {true, false, levels[q]};
+          continue;
+        }
+        const State& a = full.state();
+        const State& b = half.state();
+        const TrialState one{a.position[q], a.velocity[q], a.angular_velocity[q]};
+        const TrialState two{b.position[q], b.velocity[q], b.angular_velocity[q]};
+        // Over the chunk (for the coarsest member, its step): the error falls as h^2 for the others too.
+        errors[q] = step_error(one, two, b.position[q] - start.position[q], chunk, reference_time, start.radius[q],
+                               settings.velocity_weight, settings.dx_min);
+      }
+      // A coarse member stands in for its finer partners as its prediction: where that missed its
+      // booked path by more than a finer partner's error budget, the coarse member is at fault (its
+      // own displacement may be tiny: a heavy ball under light ones).
+      const PairContacts& touching = full.pair_contacts();
+      const std::vector<Real>& miss = full.prediction_miss();
+      for (std::size_t k = 0; k < touching.size(); ++k) {
+        ParticleIndex coarse = touching.i[k], fine = touching.j[k];
+        if (levels[coarse] < levels[fine]) std::swap(coarse, fine);
+        if (levels[coarse] == levels[fine] || start.inv_mass[coarse] == 0) continue;
+        const Real budget = (half.state().position[fine] - start.position[fine]).norm() +
+                            settings.dx_min * start.radius[fine] * chunk / reference_time;
+        const Real error = miss[coarse] / budget;
+        if (!(error <= errors[coarse])) errors[coarse] = error;
+      }
+      for (std::size_t q = 0; q < n; ++q) {
+        if (start.inv_mass[q] == 0) continue;
+        const bool aligned = (tick + ticks) % (2 * ticks_of_level(levels[q], level_min)) == 0;
+        decision[q] = decide_level(errors[q], levels[q], level_min, settings.level_max, 2, settings.safety,
+                                   settings.tolerance, aligned);
+        accepted = accepted && decision[q].accept;
+      }
+      if (!accepted) {
+        counters.rejected += steps;
+        // A rejected member drops its levels, and its coarser touching partners drop as many (but not
+        // below its new level): a squeezed particle's error is partly its partners', and halving it
+        // alone would not shrink that part.
+        std::vector<int> next = levels;
+        for (std::size_t q = 0; q < n; ++q)
+          if (!decision[q].accept) next[q] = decision[q].level;
+        for (std::size_t k = 0; k < touching.size(); ++k)
+          for (const auto& [q, p] : {std::pair{touching.i[k], touching.j[k]}, std::pair{touching.j[k], touching.i[k]}}) {
+            if (decision[q].accept || levels[p] <= decision[q].level) continue;
+            const int drop = levels[q] - decision[q].level;
+            next[p] = std::min(next[p], std::max(decision[q].level, levels[p] - drop));
+          }
+        levels = next;
+        continue;
+      }
+      counters.accepted += half.particle_steps();
+      for (std::size_t q = 0; q < n; ++q) {
+        const std::uint64_t own = static_cast<std::uint64_t>(ticks / ticks_of_level(halves[q], level_min));
+        counters.histogram[halves[q] - level_min] += own;
+        if (decision[q].forced) counters.forced += own;
+        levels[q] = decision[q].level;
+      }
+      take_trial(half, physics.book_events, origin, island);
+      break;
+    }
+    tick += ticks;
+  }
+}
+
+}  // namespace dem

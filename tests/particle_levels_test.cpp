@@ -1,0 +1,178 @@
+// Step doubling with a level per particle (integrator.particle_levels; engine/particle_level_doubling.h,
+// docs/physics.md 6.10), through the World:
+//  1. A free cluster of unequal spheres colliding in zero gravity: linear momentum is conserved to
+//     round-off while touching particles sit at different levels.
+//  2. A heavy ball resting on light ones on a floor: the heavy one steps coarser than the light ones
+//     it touches, and its height agrees with a fixed-step run at the light ones' finest step.
+//  3. A small mill under particle levels: the collision spectra hold the World's dissipated energy,
+//     the drive work balances dissipation and energy change, and 1 and 3 threads give the same state
+//     and spectra.
+// Expected values come from conservation laws and from fixed-step runs of the same scene.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "engine/scene_loader.h"
+#include "engine/world.h"
+#include "tests/contact_scenes.h"
+#include "tests/doubling_scenes.h"
+#include "tests/mill_scenes.h"
+#include "tests/thread_support.h"
+
+namespace dem {
+namespace {
+
+using namespace dem::test;
+
+Vec3 linear_momentum(const State& s) {
+  Vec3 p = Vec3::Zero();
+  for (std::size_t q = 0; q < s.size(); ++q) p += s.velocity[q] / s.inv_mass[q];
+  return p;
+}
+
+/// Largest level difference across a touching pair of the World now.
+int level_spread_in_contacts(const World& world) {
+  const PairContacts& c = world.pair_contacts();
+  const State& s = world.state();
+  int spread = 0;
+  for (std::size_t k = 0; k < c.size(); ++k) spread = std::max(spread, std::abs(s.level[c.i[k]] - s.level[c.j[k]]));
+  return spread;
+}
+
+/// Twelve spheres, radii 2 to 8 mm (masses 1:64), on a ring moving towards its centre with some
+/// spin and tangential velocity, friction and damping, no gravity and no walls.
+WorldConfig converging_cluster() {
+  WorldConfig c = base_config(2e-5);
+  ContactConfig contact;
+  contact.normal_stiffness = 2e4;
+  contact.normal_damping = {DampingKind::restitution, 0.6};
+  contact.tangential_damping = {DampingKind::damping_ratio, 0.2};
+  contact.sliding_friction = 0.4;
+  c.contacts = {contact};
+  for (int k = 0; k < 12; ++k) {
+    const Real angle = 2 * std::acos(-1.0) * k / 12;
+    const Real r = k % 3 == 0 ? 0.008 : (k % 3 == 1 ? 0.002 : 0.004);
+    const Vec3 out(std::cos(angle), std::sin(angle), 0.1 * std::sin(3 * angle));
+    ParticleConfig p = particle(0.03 * out, -0.4 * out + Vec3(-out.y(), out.x(), 0) * 0.1, r, 1000 * r * r * r / 8e-9 * 1e-3);
+    p.angular_velocity = Vec3(0, 0, 10 * (k % 2 == 0 ? 1 : -1));
+    c.particles.push_back(p);
+  }
+  set_doubling(c, 2e-5, -8, 4, 1e-3);
+  c.integrator.particle_levels = true;
+  return c;
+}
+
+TEST(ParticleLevels, AFreeClusterKeepsItsMomentumWhileTouchingParticlesStepAtDifferentLevels) {
+  World world(converging_cluster());
+  const Vec3 p0 = linear_momentum(world.state());
+  Real scale = 0;
+  for (std::size_t q = 0; q < world.state().size(); ++q)
+    scale += world.state().velocity[q].norm() / world.state().inv_mass[q];
+  Real worst = 0;
+  int widest = 0;
+  std::size_t most_contacts = 0;
+  for (int s = 0; s < 400; ++s) {
+    ASSERT_EQ(world.advance_sync_interval(), StepStatus::ok);
+    worst = std::max(worst, (linear_momentum(world.state()) - p0).norm() / scale);
+    widest = std::max(widest, level_spread_in_contacts(world));
+    most_contacts = std::max(most_contacts, world.pair_contacts().size());
+  }
+  std::printf("cluster: |dP| / sum m|v| %.3e, widest level spread across a contact %d, contacts up to %zu\n", worst,
+              widest, most_contacts);
+  EXPECT_GE(most_contacts, 6u);
+  EXPECT_GE(widest, 1);
+  EXPECT_LT(worst, 1e-13);
+}
+
+/// A 100 g ball resting on three 0.2 g balls on a floor, all released slightly above rest.
+WorldConfig heavy_on_fines(bool doubling) {
+  WorldConfig c = base_config(1e-5);
+  c.model.gravity = Vec3(0, 0, -9.81);
+  ContactConfig contact;
+  contact.normal_stiffness = 1e4;
+  contact.normal_damping = {DampingKind::damping_ratio, 0.3};
+  contact.tangential_damping = {DampingKind::damping_ratio, 0.3};
+  contact.sliding_friction = 0.5;
+  c.contacts = {contact};
+  c.walls = {plane(Vec3::Zero(), Vec3(0, 0, 1))};
+  const Real small = 0.004, big = 0.02;
+  for (int k = 0; k < 3; ++k) {
+    const Real angle = 2 * std::acos(-1.0) * k / 3;
+    c.particles.push_back(particle(Vec3(0.012 * std::cos(angle), 0.012 * std::sin(angle), small), Vec3::Zero(), small, 2e-4));
+  }
+  // Resting on the three: the centre distance to each small centre is small + big.
+  const Real rise = std::sqrt((small + big) * (small + big) - 0.012 * 0.012);
+  c.particles.push_back(particle(Vec3(0, 0, small + rise + 1e-5), Vec3::Zero(), big, 0.1));
+  if (doubling) {
+    set_doubling(c, 1e-5, -6, 6, 1e-3);
+    c.integrator.particle_levels = true;
+  }
+  return c;
+}
+
+TEST(ParticleLevels, AHeavyBallOnLightOnesStepsCoarserThanThey) {
+  World world(heavy_on_fines(true));
+  int coarser_intervals = 0, intervals = 0;
+  while (world.time() < 0.15) {
+    ASSERT_EQ(world.advance_sync_interval(), StepStatus::ok);
+    ++intervals;
+    const State& s = world.state();
+    const int fines = std::max({s.level[0], s.level[1], s.level[2]});
+    if (s.level[3] > fines && world.pair_contacts().size() == 3) ++coarser_intervals;
+  }
+  World fixed(heavy_on_fines(false));
+  ASSERT_EQ(fixed.run_until(world.time()), StepStatus::ok);
+  const Real dz = std::abs(world.state().position[3].z() - fixed.state().position[3].z());
+  std::printf("heavy on fines: heavy ball coarser than the fines it rests on at %d of %d sync times; height "
+              "against the fixed step %.3e m\n",
+              coarser_intervals, intervals, dz);
+  EXPECT_GT(coarser_intervals, intervals / 2);
+  EXPECT_LT(dz, 1e-5);  // a tenth of a percent of the radius of the fines
+}
+
+TEST(ParticleLevels, AMillBooksItsSpectraAndBalancesItsEnergyForAnyThreadCount) {
+  const AllowThreads allow_three(3);
+  Real start_energy = 0;
+  auto run = [&start_energy](int threads) {
+    const Scene scene = load_scene_text(mill_scene(8, 0.75, "count = 30"), "mill.toml", ".",
+                                        {"integrator.control=\"doubling\"", "integrator.particle_levels=true",
+                                         "run.threads=" + std::to_string(threads)});
+    auto world = std::make_unique<World>(scene.world);
+    start_energy = world->energies().total();
+    EXPECT_EQ(world->run_until(0.4), StepStatus::ok);
+    return world;
+  };
+  const std::unique_ptr<World> world = run(1);
+  const CollisionSpectra& spectra = *world->collision_spectra();
+  EXPECT_GT(spectra.events(CollisionSpectra::ball_ball), 100u);
+  EXPECT_GT(spectra.events(CollisionSpectra::ball_wall), 10u);
+  EXPECT_GT(world->counters().rejected_steps, 0u);
+  const Real lost = world->dissipated_energy();
+  ASSERT_GT(lost, 0);
+  const Real open = live_dissipation(world->pair_contacts().work, world->pair_contacts().elastic) +
+                    live_dissipation(world->wall_contacts().work, world->wall_contacts().elastic);
+  EXPECT_NEAR(spectra.dissipated() + open, lost, 1e-9 * lost);
+  // Drive work against dissipation and energy change: the residual is the integrator's own energy error.
+  const Real work = world->wall_work(), change = world->energies().total() - start_energy;
+  std::printf("mill under particle levels: drive work %.4g J, dissipated %.4g J, energy change %.4g J: residual %.3g "
+              "of the dissipation\n",
+              work, lost, change, (work - lost - change) / lost);
+  EXPECT_LT(std::abs(work - lost - change), 0.03 * lost);
+  const std::unique_ptr<World> three = run(3);
+  ASSERT_EQ(three->thread_count(), 3);
+  EXPECT_EQ(three->state_hash(), world->state_hash());
+  const CollisionSpectra& other = *three->collision_spectra();
+  for (auto kind : {CollisionSpectra::ball_ball, CollisionSpectra::ball_wall}) {
+    EXPECT_EQ(other.events(kind), spectra.events(kind));
+    for (int b = 0; b < CollisionSpectra::bin_count; ++b)
+      EXPECT_EQ(other.energy(kind, CollisionSpectra::impact, b), spectra.energy(kind, CollisionSpectra::impact, b));
+  }
+}
+
+}  // namespace
+}  // namespace dem
