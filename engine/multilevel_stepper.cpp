@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
-#include <tuple>
 
 #include "engine/checks.h"
 
@@ -125,7 +124,6 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
   for (std::size_t c = 0; c < count; ++c) {
     compact[c].index_rows(n);
     rebuild_neighbours(state_, level_candidates_[c], compact[c], neighbours_[c]);
-    if (!neighbours_[c].left_start.empty()) throw std::logic_error("MultilevelGroup: a touching pair is no candidate");
   }
   rebuilt_from_ = std::move(compact);
   // Per contact level: the rows that hold its pairs, and the coarser particles in them.
@@ -145,6 +143,8 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
     }
     for (std::size_t p = 0; p < n; ++p)
       if (seen[p]) participants_[c].push_back(static_cast<ParticleIndex>(p));
+    // Contacts that are no candidates end in the next force loop, which then visits every row.
+    if (!neighbours_[c].left_start.empty()) neighbours_[c].visited_rows.clear();
   }
 
   // Members, their states and wall contacts by particle level.
@@ -190,7 +190,7 @@ WallContacts MultilevelGroup::wall_contacts() const {
 void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
   const DashpotVelocity dashpot{false, physics_.gravity, physics_.dimension};
   NeighbourContacts& nb = neighbours_[c];
-  if (nb.size() > 0) {
+  if (nb.size() > 0 || !nb.left_start.empty()) {
     physics_.kernels.neighbour_forces(view_, *physics_.materials, nb, h, dashpot);
     ended_dissipation_ +=
         finish_ended_contacts(view_, nb, rebuilt_from_[c], physics_.book_events ? &spectra_ : nullptr);
