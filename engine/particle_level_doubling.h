@@ -1,12 +1,13 @@
 #pragma once
-// Step doubling with a level per particle on one island (docs/physics.md 6.10), for velocity Verlet:
-// the island's round is run twice by the multilevel stepper (multilevel_stepper.h), once with every
-// member at its level and once with every level halved; each member's two results are compared over
-// the round in the norm of step_control.h, and each member's level is chosen from its own error. A
-// member whose error is too large lowers its level and the island's round is tried again; when all
-// pass, the island keeps the second trial (the finer one) and each member the level its error asks for.
-// A coarse member's error thus compares its predicted-and-booked path at two resolutions, and a fine
-// member no longer sets the step of the whole island.
+// Step doubling with a level per particle on one island (docs/physics.md 6.10), for velocity Verlet.
+// The island's round is cut into chunks, each one step of its coarsest member. A chunk is run twice by
+// the multilevel stepper (multilevel_stepper.h), once with every member at its level and once with
+// every level halved; each member's two results are compared over the chunk in the norm of
+// step_control.h (a coarse member's error also counts how far its prediction missed, over its finer
+// partners' budget), and each member's level is chosen from its own error. A member whose error is too
+// large lowers its level, and its coarser touching partners with it, and the chunk is tried again;
+// when all pass, the island keeps the second trial (the finer one) and each member the level its error
+// asks for. So a fine member no longer sets the step of the whole island.
 #include <cstdint>
 #include <vector>
 
