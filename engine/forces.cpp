@@ -162,8 +162,8 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
   PairContacts& c = nb.list;
   DEM_ASSERT(c.parts.friction == Law::friction && c.parts.rolling == Law::rolling);
   const bool books = c.parts.books;
-  DEM_ASSERT(nb.visited_rows.empty() || nb.left_start.empty());
-  const bool sparse = !nb.visited_rows.empty();
+  // Contacts left behind may sit in any row: then every row is visited.
+  const bool sparse = !nb.visited_rows.empty() && nb.left_start.empty();
   parallel_for(sparse ? nb.visited_rows.size() : c.row_start.size() - 1, [&](std::size_t r) {
     const std::size_t a = sparse ? nb.visited_rows[r] : r;
     Real ended = 0;

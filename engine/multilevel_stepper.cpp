@@ -143,8 +143,6 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
     }
     for (std::size_t p = 0; p < n; ++p)
       if (seen[p]) participants_[c].push_back(static_cast<ParticleIndex>(p));
-    // Contacts that are no candidates end in the next force loop, which then visits every row.
-    if (!neighbours_[c].left_start.empty()) neighbours_[c].visited_rows.clear();
   }
 
   // Members, their states and wall contacts by particle level.
@@ -292,9 +290,12 @@ void MultilevelGroup::finish_positions(std::size_t due) {
       if (inv_m != 0) x += (0.5 * h * h) * physics_.gravity + inv_m * s.moment;
       if (physics_.dimension == 2) flatten_to_plane(x);
       state_.position[p] = x;
-      miss_[p] = std::max(miss_[p], (x - (s.x0 + h * s.v0 + (0.5 * h * h) * s.a0)).norm());
+      const Real miss = (x - (s.x0 + h * s.v0 + (0.5 * h * h) * s.a0)).norm();
+      miss_[p] = std::max(miss_[p], miss);
       view_.position[p] = x;
-      excursion_[p] = std::max(excursion_[p], (x - origin_[p]).norm());
+      // Partners saw it on its prediction, a parabola that strays up to |a0| H^2 / 8 from its chord,
+      // which ends `miss` from where it arrived.
+      excursion_[p] = std::max(excursion_[p], (x - origin_[p]).norm() + 0.125 * s.a0.norm() * h * h + miss);
     }
   }
 }

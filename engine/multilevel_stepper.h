@@ -16,8 +16,8 @@
 // side's (x - x0) / H, the coarser side's from its prediction.
 // The group owns a copy of its particles, its candidate pairs (which must stay valid while it
 // advances: the caller's skin covers the motion) and its contacts, persistent per candidate pair and
-// split by contact level (neighbour_contacts.h), and wall contacts split by particle level. Serial:
-// groups are the unit of parallel work, so results do not depend on thread count.
+// split by contact level (neighbour_contacts.h), and wall contacts split by particle level. Its loops
+// write per row, slot or particle, in a fixed order, so results do not depend on thread count.
 // Verlet only; the dashpot sees the half-step velocity (DashpotVelocity::predicted is not supported).
 #include <cstdint>
 #include <vector>

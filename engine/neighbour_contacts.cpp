@@ -64,6 +64,8 @@ void rebuild_neighbours(const State& s, const broadphase::CandidatePairs& candid
       reset_neighbour(nb, k);
       if (old < old_end && contacts.key[old] == key) {
         PairContacts::for_each_carried(list.parts, [&](auto field) { (list.*field)[k] = (contacts.*field)[old]; });
+        // With its last force, so a list that reads the slots before its next evaluation has it all.
+        if (list.parts.rolling) list.rolling_torque[k] = contacts.rolling_torque[old];
         nb.inherited[old] = 1;
         nb.touching[k] = touching_yes;
         ++old;

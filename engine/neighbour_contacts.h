@@ -52,8 +52,8 @@ struct NeighbourContacts {
   std::vector<Real> left_dissipated;       // per left-behind contact: its work less its springs' energy [J]
   std::vector<std::uint32_t> left_start;   // empty when nothing was left behind
   // Empty: the force loop visits every row. Else the only rows it visits, ascending: those holding
-  // slots (a sparse list, such as one contact level's of a multilevel group); a rebuild that left
-  // contacts behind must not use it. The others keep their reset values.
+  // slots (a sparse list, such as one contact level's of a multilevel group), unless the last rebuild
+  // left contacts behind. The others keep their reset values.
   std::vector<std::uint32_t> visited_rows;
   std::vector<std::uint8_t> inherited;     // scratch of rebuild_neighbours, per compact contact
   std::vector<std::uint32_t> cursor;       // scratch of rebuild_neighbours, per particle

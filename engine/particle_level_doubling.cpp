@@ -64,6 +64,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
   std::vector<int> halves(n);
   std::vector<LevelDecision> decision(n);
   std::vector<Real> errors(n);
+  std::vector<std::uint8_t> failed(n);
   // Chunk by chunk: a chunk is one step of the island's coarsest member, so levels change (and
   // promote) at every chunk, not once per round.
   for (std::int64_t tick = begin; tick < end;) {
@@ -84,6 +85,10 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
       highest = level_min;
       for (int& l : levels) highest = std::max(highest, l = std::min(l, cap));
     }
+    // An immovable member's prediction is its path: it takes the longest step, and its contacts the
+    // levels of its partners.
+    for (std::size_t q = 0; q < n; ++q)
+      if (island.state.inv_mass[q] == 0) levels[q] = highest;
     const std::int64_t ticks = ticks_of_level(highest, level_min);
     const Real chunk = static_cast<Real>(ticks) * finest;
     const Real reference_time = settings.reference_time > 0 ? settings.reference_time : chunk;
@@ -99,6 +104,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
       counters.force_evaluations += steps;
       bool accepted = true;
       for (std::size_t q = 0; q < n; ++q) {
+        failed[q] = 0;
         if (start.inv_mass[q] == 0) {
           decision[q] = {true, false, levels[q]};
           continue;
@@ -119,7 +125,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
       for (std::size_t k = 0; k < touching.size(); ++k) {
         ParticleIndex coarse = touching.i[k], fine = touching.j[k];
         if (levels[coarse] < levels[fine]) std::swap(coarse, fine);
-        if (levels[coarse] == levels[fine] || start.inv_mass[coarse] == 0) continue;
+        if (levels[coarse] == levels[fine] || start.inv_mass[coarse] == 0 || start.inv_mass[fine] == 0) continue;
         const Real budget = (half.state().position[fine] - start.position[fine]).norm() +
                             settings.dx_min * start.radius[fine] * chunk / reference_time;
         const Real error = miss[coarse] / budget;
@@ -130,8 +136,14 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
         const bool aligned = (tick + ticks) % (2 * ticks_of_level(levels[q], level_min)) == 0;
         decision[q] = decide_level(errors[q], levels[q], level_min, settings.level_max, 2, settings.safety,
                                    settings.tolerance, aligned);
-        accepted = accepted && decision[q].accept;
+        failed[q] = !decision[q].accept;
       }
+      // A member accepted only because it reached level_min fails while a touching partner is coarser:
+      // its error may be that partner's.
+      for (std::size_t k = 0; k < touching.size(); ++k)
+        for (const auto& [q, p] : {std::pair{touching.i[k], touching.j[k]}, std::pair{touching.j[k], touching.i[k]}})
+          if (decision[q].forced && levels[p] > levels[q] && start.inv_mass[p] != 0) failed[q] = 1;
+      for (std::size_t q = 0; q < n; ++q) accepted = accepted && !failed[q];
       if (!accepted) {
         counters.rejected += steps;
         // A rejected member drops its levels, and its coarser touching partners drop as many (but not
@@ -139,11 +151,11 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
         // alone would not shrink that part.
         std::vector<int> next = levels;
         for (std::size_t q = 0; q < n; ++q)
-          if (!decision[q].accept) next[q] = decision[q].level;
+          if (failed[q]) next[q] = decision[q].level;
         for (std::size_t k = 0; k < touching.size(); ++k)
           for (const auto& [q, p] : {std::pair{touching.i[k], touching.j[k]}, std::pair{touching.j[k], touching.i[k]}}) {
-            if (decision[q].accept || levels[p] <= decision[q].level) continue;
-            const int drop = levels[q] - decision[q].level;
+            if (!failed[q] || levels[p] <= decision[q].level || start.inv_mass[p] == 0) continue;
+            const int drop = std::max(1, levels[q] - decision[q].level);
             next[p] = std::min(next[p], std::max(decision[q].level, levels[p] - drop));
           }
         levels = next;

@@ -7,7 +7,7 @@
 // partners' budget), and each member's level is chosen from its own error. A member whose error is too
 // large lowers its level, and its coarser touching partners with it, and the chunk is tried again;
 // when all pass, the island keeps the second trial (the finer one) and each member the level its error
-// asks for. So a fine member no longer sets the step of the whole island.
+// asks for. So a fine member does not set the step of the whole island.
 #include <cstdint>
 #include <vector>
 

@@ -17,6 +17,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <oneapi/tbb/task_arena.h>
+
 #include "engine/doubling_work.h"
 #include "engine/parallel.h"
 #include "engine/particle_level_doubling.h"
@@ -67,6 +69,9 @@ void World::init_doubling() {
   if (c.level_min > c.level_max || c.level_min < -100 || c.level_max > 100 || c.level_max - c.level_min > 40)
     throw std::invalid_argument("integrator levels must satisfy -100 <= level_min <= level_max <= 100 and "
                                 "level_max - level_min <= 40");
+  if (c.particle_levels && (c.method == Method::exact || c.predicted_dashpot))
+    throw std::invalid_argument("integrator.particle_levels needs method verlet (the exact stepper keeps one level per "
+                                "touching set) and does not combine with predicted_dashpot yet");
   IslandScratch exemplar;
   exemplar.walls = walls_;
   exemplar.exact.rolling = exact_work_.rolling;
@@ -308,38 +313,38 @@ void World::run_islands(const std::vector<std::uint32_t>& which, std::int64_t ti
       busy.push_back(k);
     }
   if (d.jobs.size() < d.job_count) d.jobs.resize(d.job_count);
-  parallel_for(
-      busy.size(),
-      [&](std::size_t w) {
-        const std::uint32_t k = busy[w];
-        IslandJob& job = d.jobs[d.job_of[k]];
-        // The exact stepper finds its contacts from the positions; it keeps only its wall contacts'
-        // tangential and rolling history, by particle id.
-        gather_island(d.islands, d.local_index, k, state_, candidates_, pairs_, wall_contacts_, adjacency_.wall_start,
-                      c.method == Method::verlet, c.method == Method::exact ? &exact_work_.history : nullptr, job);
-        std::vector<int>& levels = job.levels;
-        levels.assign(job.island.state.level.begin(), job.island.state.level.end());
-        if (per_particle) {
-          advance_island_per_particle(job.island, job.candidates, d.physics, settings, d.scratch.local().walls, t0,
-                                      tick, end, levels, d.counters.local());
-        } else {
-          const int start_level = *std::min_element(levels.begin(), levels.end());
-          levels.assign(levels.size(), advance_island(job.island, job.candidates, d.physics, settings,
-                                                      d.scratch.local(), t0, tick, end, start_level, d.counters.local()));
-        }
-        // Scatter the particles; contacts stay in the job until the round is accepted.
-        const ParticleIndex* member = d.islands.member.data() + d.islands.start[k];
-        const State& t = job.island.state;
-        for (std::size_t q = 0; q < t.size(); ++q) {
-          const ParticleIndex a = member[q];
-          d.next.position[a] = t.position[q], d.next.velocity[a] = t.velocity[q];
-          d.next.angular_velocity[a] = t.angular_velocity[q];
-          d.next.force[a] = t.force[q], d.next.torque[a] = t.torque[q];
-          d.next.level[a] = static_cast<std::int8_t>(levels[q]);
-          d.excursion[a] = job.island.excursion[q];
-        }
-      },
-      1);
+  const auto run_island = [&](std::size_t w) {
+    const std::uint32_t k = busy[w];
+    IslandJob& job = d.jobs[d.job_of[k]];
+    // The exact stepper finds its contacts from the positions; it keeps only its wall contacts'
+    // tangential and rolling history, by particle id.
+    gather_island(d.islands, d.local_index, k, state_, candidates_, pairs_, wall_contacts_, adjacency_.wall_start,
+                  c.method == Method::verlet, c.method == Method::exact ? &exact_work_.history : nullptr, job);
+    std::vector<int>& levels = job.levels;
+    levels.assign(job.island.state.level.begin(), job.island.state.level.end());
+    if (per_particle) {
+      advance_island_per_particle(job.island, job.candidates, d.physics, settings, d.scratch.local().walls, t0,
+                                  tick, end, levels, d.counters.local());
+    } else {
+      const int start_level = *std::min_element(levels.begin(), levels.end());
+      levels.assign(levels.size(), advance_island(job.island, job.candidates, d.physics, settings,
+                                                  d.scratch.local(), t0, tick, end, start_level, d.counters.local()));
+    }
+    // Scatter the particles; contacts stay in the job until the round is accepted.
+    const ParticleIndex* member = d.islands.member.data() + d.islands.start[k];
+    const State& t = job.island.state;
+    for (std::size_t q = 0; q < t.size(); ++q) {
+      const ParticleIndex a = member[q];
+      d.next.position[a] = t.position[q], d.next.velocity[a] = t.velocity[q];
+      d.next.angular_velocity[a] = t.angular_velocity[q];
+      d.next.force[a] = t.force[q], d.next.torque[a] = t.torque[q];
+      d.next.level[a] = static_cast<std::int8_t>(levels[q]);
+      d.excursion[a] = job.island.excursion[q];
+    }
+  };
+  // Each island runs isolated: a thread waiting in an island's own parallel loops takes no other
+  // island's task, which would reuse this thread's scratch (its walls set to another time) meanwhile.
+  parallel_for(busy.size(), [&](std::size_t w) { tbb::this_task_arena::isolate([&] { run_island(w); }); }, 1);
 }
 
 bool World::find_conflicts() {

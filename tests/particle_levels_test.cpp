@@ -132,7 +132,7 @@ TEST(ParticleLevels, AHeavyBallOnLightOnesStepsCoarserThanThey) {
               "against the fixed step %.3e m\n",
               coarser_intervals, intervals, dz);
   EXPECT_GT(coarser_intervals, intervals / 2);
-  EXPECT_LT(dz, 1e-5);  // a tenth of a percent of the radius of the fines
+  EXPECT_LT(dz, 1e-6);  // a quarter of a thousandth of the radius of the fines
 }
 
 TEST(ParticleLevels, AMillBooksItsSpectraAndBalancesItsEnergyForAnyThreadCount) {
