@@ -146,9 +146,9 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
       for (std::size_t q = 0; q < n; ++q) accepted = accepted && !failed[q];
       if (!accepted) {
         counters.rejected += steps;
-        // A rejected member drops its levels, and its coarser touching partners drop as many (but not
-        // below its new level): a squeezed particle's error is partly its partners', and halving it
-        // alone would not shrink that part.
+        // A failed member drops its levels, and its touching partners above its new level drop as many
+        // (at least one, not below its new level): a squeezed particle's error is partly its partners',
+        // and halving it alone would not shrink that part.
         std::vector<int> next = levels;
         for (std::size_t q = 0; q < n; ++q)
           if (failed[q]) next[q] = decision[q].level;
