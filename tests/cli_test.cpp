@@ -262,6 +262,32 @@ TEST(Set, ValueInsideAnInlineTableReachesTheContact) {
   EXPECT_NE(check.out.find("zeta = 0.5"), std::string::npos) << check.out;
 }
 
+TEST(CliCheck, NamesHowStepDoublingLevelsATouchingGroup) {
+  // Under step doubling `dem check` says whether a touching group steps at one level or each particle
+  // at its own, and why the exact stepper keeps one level per touching set.
+  const TempDir tmp;
+  const std::vector<std::string> doubling = {"check", head_on, "--set", "integrator.control=\"doubling\""};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = doubling;
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_dem(args, tmp.path());
+  };
+  const Result island = with({});
+  EXPECT_EQ(island.code, 0) << island.err;
+  EXPECT_NE(island.out.find("one level per touching group, its finest member's"), std::string::npos) << island.out;
+  const Result particle = with({"--set", "integrator.particle_levels=true"});
+  EXPECT_EQ(particle.code, 0) << particle.err;
+  EXPECT_NE(particle.out.find("a level per particle inside each touching group"), std::string::npos) << particle.out;
+  const Result exact = with({"--set", "integrator.method=\"exact\""});
+  EXPECT_EQ(exact.code, 0) << exact.err;
+  EXPECT_NE(exact.out.find("one level per touching group (the exact stepper's pair flows need both sides live)"),
+            std::string::npos)
+      << exact.out;
+  const Result refused = with({"--set", "integrator.method=\"exact\"", "--set", "integrator.particle_levels=true"});
+  EXPECT_EQ(refused.code, 2);
+  EXPECT_NE(refused.err.find("the exact stepper keeps one level per touching set"), std::string::npos) << refused.err;
+}
+
 TEST(Set, ArrayElementsOfTablesAndOfValues) {
   const TempDir tmp;
   const fs::path out = tmp.path() / "out";
