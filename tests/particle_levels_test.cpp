@@ -58,7 +58,8 @@ WorldConfig converging_cluster() {
     const Real angle = 2 * std::acos(-1.0) * k / 12;
     const Real r = k % 3 == 0 ? 0.008 : (k % 3 == 1 ? 0.002 : 0.004);
     const Vec3 out(std::cos(angle), std::sin(angle), 0.1 * std::sin(3 * angle));
-    ParticleConfig p = particle(0.03 * out, -0.4 * out + Vec3(-out.y(), out.x(), 0) * 0.1, r, 1000 * r * r * r / 8e-9 * 1e-3);
+    const Real mass = std::pow(r / 0.002, 3);  // [kg]: dense, so that the contacts last many steps
+    ParticleConfig p = particle(0.03 * out, -0.4 * out + Vec3(-out.y(), out.x(), 0) * 0.1, r, mass);
     p.angular_velocity = Vec3(0, 0, 10 * (k % 2 == 0 ? 1 : -1));
     c.particles.push_back(p);
   }
