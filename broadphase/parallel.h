@@ -66,6 +66,13 @@ void parallel_ranges(std::size_t n, std::size_t grain, const Body& body) {
                     [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); });
 }
 
+/// Runs f so that a thread waiting in f's own parallel loops takes no task of the loop around it (which
+/// could use the same per-thread scratch meanwhile).
+template <class F>
+void isolated(F&& f) {
+  tbb::this_task_arena::isolate(std::forward<F>(f));
+}
+
 /// Reduces [0, n) with an exact, order-free combine (min, max, OR, integer add), so any split gives the
 /// same answer: range(begin, end, acc) folds a sub-range into acc and returns it; combine(a, b) joins two.
 template <class T, class Range, class Combine>
@@ -148,6 +155,12 @@ void parallel_ranges(std::size_t n, std::size_t grain, const Body& body) {
         (*x.body)(k * x.grain, std::min(x.n, (k + 1) * x.grain));
       },
       &context);
+}
+
+/// Runs f: loops nested in a loop body run on the calling thread alone, so nothing else can interleave.
+template <class F>
+void isolated(F&& f) {
+  std::forward<F>(f)();
 }
 
 /// Reduces [0, n) with an exact, order-free combine (min, max, OR, integer add), so any split gives the

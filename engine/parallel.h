@@ -24,6 +24,7 @@ namespace dem {
 
 using broadphase::TaskArena;
 using broadphase::exact_reduce;
+using broadphase::isolated;
 
 inline constexpr std::size_t default_grain = 256;
 

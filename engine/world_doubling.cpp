@@ -17,8 +17,6 @@
 #include <cmath>
 #include <stdexcept>
 
-#include <oneapi/tbb/task_arena.h>
-
 #include "engine/doubling_work.h"
 #include "engine/parallel.h"
 #include "engine/particle_level_doubling.h"
@@ -344,7 +342,7 @@ void World::run_islands(const std::vector<std::uint32_t>& which, std::int64_t ti
   };
   // Each island runs isolated: a thread waiting in an island's own parallel loops takes no other
   // island's task, which would reuse this thread's scratch (its walls set to another time) meanwhile.
-  parallel_for(busy.size(), [&](std::size_t w) { tbb::this_task_arena::isolate([&] { run_island(w); }); }, 1);
+  parallel_for(busy.size(), [&](std::size_t w) { isolated([&] { run_island(w); }); }, 1);
 }
 
 bool World::find_conflicts() {
