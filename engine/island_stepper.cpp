@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "engine/integrators.h"
+#include "engine/scheduler.h"
 #include "engine/step_control.h"
 
 namespace dem {
@@ -140,8 +141,6 @@ void apply_richardson(IslandState& half, const IslandState& full, const broadpha
   evaluate_forces(half, candidates, physics, scratch, 0);
 }
 
-std::int64_t ticks_of_level(int level, int level_min) { return std::int64_t{1} << (level - level_min); }
-
 }  // namespace
 
 void DoublingCounters::add(const DoublingCounters& o) {
@@ -206,9 +205,7 @@ int advance_island(IslandState& island, const broadphase::CandidatePairs& candid
   level = std::clamp(level, settings.level_min, settings.level_max);
   while (tick < end) {
     // A step starts only where its level is aligned and ends inside the round.
-    while (level > settings.level_min &&
-           (tick % ticks_of_level(level, settings.level_min) != 0 || tick + ticks_of_level(level, settings.level_min) > end))
-      --level;
+    level = aligned_level(level, settings.level_min, tick, end);
     const Real t = t0 + static_cast<Real>(tick) * finest;
     if (physics.method == Method::verlet && level > settings.contact_level) {
       scratch.walls.set_time(t);

@@ -415,6 +415,17 @@ void MultilevelGroup::advance(std::int64_t ticks) {
   time_ = time0_ + static_cast<Real>(tick_origin_) * tick;
 }
 
+std::vector<std::pair<ParticleIndex, ParticleIndex>> MultilevelGroup::touching_pairs() const {
+  std::vector<std::pair<ParticleIndex, ParticleIndex>> out;
+  for (std::size_t c = 0; c < neighbours_.size(); ++c) {
+    const NeighbourContacts& nb = neighbours_[c];
+    for (ParticleIndex a : rows_[c])
+      for (std::uint32_t k = nb.list.row_start[a]; k < nb.list.row_start[a + 1]; ++k)
+        if (nb.touching[k] == touching_yes) out.emplace_back(a, nb.list.j[k]);
+  }
+  return out;
+}
+
 PairContacts MultilevelGroup::pair_contacts() const {
   const std::size_t n = state_.size();
   std::vector<std::pair<std::uint64_t, std::pair<std::size_t, std::uint32_t>>> order;

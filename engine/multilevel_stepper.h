@@ -20,6 +20,7 @@
 // write per row, slot or particle, in a fixed order, so results do not depend on thread count.
 // Verlet only; the dashpot sees the half-step velocity (DashpotVelocity::predicted is not supported).
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "broadphase/candidate_pairs.h"
@@ -71,6 +72,9 @@ class MultilevelGroup {
   Real ended_dissipation() const { return ended_dissipation_; }
   /// The touching pair contacts, in key order, with row_start indexed.
   PairContacts pair_contacts() const;
+  /// The touching pairs (group slots, the row's first), by contact level and row: where only the
+  /// partners matter, without pair_contacts()' copy and sort.
+  std::vector<std::pair<ParticleIndex, ParticleIndex>> touching_pairs() const;
   /// The wall contacts, in key order (so by particle).
   WallContacts wall_contacts() const;
   /// Work of the moving walls on the particles so far, each level's contacts times its step [J].

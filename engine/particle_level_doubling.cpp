@@ -4,12 +4,11 @@
 #include <cmath>
 
 #include "engine/multilevel_stepper.h"
+#include "engine/scheduler.h"
 #include "engine/step_control.h"
 
 namespace dem {
 namespace {
-
-std::int64_t ticks_of_level(int level, int level_min) { return std::int64_t{1} << (level - level_min); }
 
 /// The island's state after an accepted trial, its contacts and books; `origin` holds the members'
 /// positions at the round's start, for their excursions.
@@ -71,9 +70,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
     // Each member's step starts here on its own grid and ends within the round.
     int highest = level_min;
     for (int& l : levels) {
-      l = std::clamp(l, level_min, settings.level_max);
-      while (l > level_min && (tick % ticks_of_level(l, level_min) != 0 || tick + ticks_of_level(l, level_min) > end))
-        --l;
+      l = aligned_level(std::clamp(l, level_min, settings.level_max), level_min, tick, end);
       highest = std::max(highest, l);
     }
     const Real t = t0 + static_cast<Real>(tick) * finest;
@@ -120,10 +117,9 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
       // A coarse member stands in for its finer partners as its prediction: where that missed its
       // booked path by more than a finer partner's error budget, the coarse member is at fault (its
       // own displacement may be tiny: a heavy ball under light ones).
-      const PairContacts& touching = full.pair_contacts();
+      const std::vector<std::pair<ParticleIndex, ParticleIndex>> touching = full.touching_pairs();
       const std::vector<Real>& miss = full.prediction_miss();
-      for (std::size_t k = 0; k < touching.size(); ++k) {
-        ParticleIndex coarse = touching.i[k], fine = touching.j[k];
+      for (auto [coarse, fine] : touching) {
         if (levels[coarse] < levels[fine]) std::swap(coarse, fine);
         if (levels[coarse] == levels[fine] || start.inv_mass[coarse] == 0 || start.inv_mass[fine] == 0) continue;
         const Real budget = (half.state().position[fine] - start.position[fine]).norm() +
@@ -140,8 +136,8 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
       }
       // A member accepted only because it reached level_min fails while a touching partner is coarser:
       // its error may be that partner's.
-      for (std::size_t k = 0; k < touching.size(); ++k)
-        for (const auto& [q, p] : {std::pair{touching.i[k], touching.j[k]}, std::pair{touching.j[k], touching.i[k]}})
+      for (const auto& [i, j] : touching)
+        for (const auto& [q, p] : {std::pair{i, j}, std::pair{j, i}})
           if (decision[q].forced && levels[p] > levels[q] && start.inv_mass[p] != 0) failed[q] = 1;
       for (std::size_t q = 0; q < n; ++q) accepted = accepted && !failed[q];
       if (!accepted) {
@@ -152,8 +148,8 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
         std::vector<int> next = levels;
         for (std::size_t q = 0; q < n; ++q)
           if (failed[q]) next[q] = decision[q].level;
-        for (std::size_t k = 0; k < touching.size(); ++k)
-          for (const auto& [q, p] : {std::pair{touching.i[k], touching.j[k]}, std::pair{touching.j[k], touching.i[k]}}) {
+        for (const auto& [i, j] : touching)
+          for (const auto& [q, p] : {std::pair{i, j}, std::pair{j, i}}) {
             if (!failed[q] || levels[p] <= decision[q].level || start.inv_mass[p] == 0) continue;
             const int drop = std::max(1, levels[q] - decision[q].level);
             next[p] = std::min(next[p], std::max(decision[q].level, levels[p] - drop));

@@ -9,6 +9,17 @@
 
 namespace dem {
 
+/// Finest steps (ticks) in one step of `level`.
+inline std::int64_t ticks_of_level(int level, int level_min) { return std::int64_t{1} << (level - level_min); }
+
+/// `level` lowered (not below level_min) until its step starts at `tick` on its own grid and ends by `end`.
+inline int aligned_level(int level, int level_min, std::int64_t tick, std::int64_t end) {
+  while (level > level_min &&
+         (tick % ticks_of_level(level, level_min) != 0 || tick + ticks_of_level(level, level_min) > end))
+    --level;
+  return level;
+}
+
 struct Clock {
   std::int64_t interval = 0;  // completed sync intervals
   std::int64_t tick = 0;      // finest steps into the current interval

@@ -25,8 +25,6 @@
 namespace dem {
 namespace {
 
-std::int64_t ticks_of_level(int level, int level_min) { return std::int64_t{1} << (level - level_min); }
-
 Vec3 acceleration(const State& s, std::size_t p, const Vec3& gravity) {
   return s.inv_mass[p] == 0 ? Vec3(Vec3::Zero()) : Vec3(s.inv_mass[p] * s.force[p] + gravity);
 }
@@ -127,9 +125,7 @@ int World::round_level(std::int64_t tick) {
   const int level_min = scheduler_.level_min();
   const std::int64_t ticks = scheduler_.ticks_per_interval();
   int level = scheduler_.level_max();
-  while (level > level_min &&
-         (tick % ticks_of_level(level, level_min) != 0 || tick + ticks_of_level(level, level_min) > ticks))
-    --level;
+  level = aligned_level(level, level_min, tick, ticks);
   // How far any particle can go in a step of h: |v| h + |a| h^2 / 2, bounded from the largest
   // speed and acceleration (max is exact, so the bound is the same for any thread count).
   Real speed = 0, accel = 0;

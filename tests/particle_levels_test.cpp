@@ -29,12 +29,6 @@ namespace {
 
 using namespace dem::test;
 
-Vec3 linear_momentum(const State& s) {
-  Vec3 p = Vec3::Zero();
-  for (std::size_t q = 0; q < s.size(); ++q) p += s.velocity[q] / s.inv_mass[q];
-  return p;
-}
-
 /// Largest level difference across a touching pair of the World now.
 int level_spread_in_contacts(const World& world) {
   const PairContacts& c = world.pair_contacts();
@@ -70,7 +64,7 @@ WorldConfig converging_cluster() {
 
 TEST(ParticleLevels, AFreeClusterKeepsItsMomentumWhileTouchingParticlesStepAtDifferentLevels) {
   World world(converging_cluster());
-  const Vec3 p0 = linear_momentum(world.state());
+  const Vec3 p0 = world.linear_momentum();
   Real scale = 0;
   for (std::size_t q = 0; q < world.state().size(); ++q)
     scale += world.state().velocity[q].norm() / world.state().inv_mass[q];
@@ -79,7 +73,7 @@ TEST(ParticleLevels, AFreeClusterKeepsItsMomentumWhileTouchingParticlesStepAtDif
   std::size_t most_contacts = 0;
   for (int s = 0; s < 400; ++s) {
     ASSERT_EQ(world.advance_sync_interval(), StepStatus::ok);
-    worst = std::max(worst, (linear_momentum(world.state()) - p0).norm() / scale);
+    worst = std::max(worst, (world.linear_momentum() - p0).norm() / scale);
     widest = std::max(widest, level_spread_in_contacts(world));
     most_contacts = std::max(most_contacts, world.pair_contacts().size());
   }
