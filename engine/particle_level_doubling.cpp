@@ -37,6 +37,34 @@ void take_trial(const MultilevelGroup& trial, bool book_events, const std::vecto
   }
 }
 
+/// Per member, the highest level whose step keeps it stable on the springs it touches now: a step of
+/// at most sqrt(m / k), half velocity Verlet's limit 2 / omega, for its mass m on the sum k of its
+/// contacts' normal stiffnesses (partners held fixed: a coarse member moves under finer ones as if
+/// they were). level_max without contacts; immovable members are not capped (they take the chunk's level).
+void stability_levels(const IslandState& island, const MaterialTable& materials, const Walls& walls,
+                      const DoublingSettings& settings, std::vector<int>& level) {
+  const State& s = island.state;
+  std::vector<Real> stiffness(s.size(), 0);
+  const PairContacts& pairs = island.pairs;
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const Real k_n = materials.params(materials.pair_class(s.material[pairs.i[k]], s.material[pairs.j[k]])).k_n;
+    stiffness[pairs.i[k]] += k_n;
+    stiffness[pairs.j[k]] += k_n;
+  }
+  const WallContacts& wc = island.walls;
+  for (std::size_t k = 0; k < wc.size(); ++k) {
+    const ParticleIndex p = wc.particle[k];
+    stiffness[p] += materials.params(materials.pair_class(s.material[p], walls.material(wc.wall[k]))).k_n;
+  }
+  for (std::size_t q = 0; q < s.size(); ++q) {
+    level[q] = settings.level_max;
+    if (s.inv_mass[q] == 0 || stiffness[q] <= 0) continue;
+    const Real step = std::sqrt(1 / (s.inv_mass[q] * stiffness[q]));
+    const Real steps = std::floor(std::log2(step / settings.dt_base));
+    level[q] = static_cast<int>(std::clamp(steps, Real(settings.level_min), Real(settings.level_max)));
+  }
+}
+
 }  // namespace
 
 void advance_island_per_particle(IslandState& island, const broadphase::CandidatePairs& candidates,
@@ -64,6 +92,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
   std::vector<LevelDecision> decision(n);
   std::vector<Real> errors(n);
   std::vector<std::uint8_t> failed(n);
+  std::vector<int> stability(n);
   // Chunk by chunk: a chunk is one step of the island's coarsest member, so levels change (and
   // promote) at every chunk, not once per round.
   for (std::int64_t tick = begin; tick < end;) {
@@ -82,13 +111,22 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
       highest = level_min;
       for (int& l : levels) highest = std::max(highest, l = std::min(l, cap));
     }
+    // No member above the level that resolves its own springs.
+    stability_levels(island, *physics.materials, walls, settings, stability);
+    highest = level_min;
+    for (std::size_t q = 0; q < n; ++q) highest = std::max(highest, levels[q] = std::min(levels[q], stability[q]));
     // An immovable member's prediction is its path: it takes the longest step, and its contacts the
     // levels of its partners.
     for (std::size_t q = 0; q < n; ++q)
       if (island.state.inv_mass[q] == 0) levels[q] = highest;
     const std::int64_t ticks = ticks_of_level(highest, level_min);
     const Real chunk = static_cast<Real>(ticks) * finest;
-    const Real reference_time = settings.reference_time > 0 ? settings.reference_time : chunk;
+    // The time over which a member's error is weighed (step_control.h): the run's reference time,
+    // else the member's own step, so that a member taking many steps in the chunk is held to the
+    // error per step that one level per island holds it to, not to that much over the whole chunk.
+    const auto reference_time = [&](std::size_t q) {
+      return settings.reference_time > 0 ? settings.reference_time : std::ldexp(settings.dt_base, levels[q]);
+    };
     const State& start = island.state;
     for (;;) {
       for (std::size_t q = 0; q < n; ++q) halves[q] = std::max(levels[q] - 1, level_min);
@@ -110,8 +148,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
         const State& b = half.state();
         const TrialState one{a.position[q], a.velocity[q], a.angular_velocity[q]};
         const TrialState two{b.position[q], b.velocity[q], b.angular_velocity[q]};
-        // Over the chunk (for the coarsest member, its step): the error falls as h^2 for the others too.
-        errors[q] = step_error(one, two, b.position[q] - start.position[q], chunk, reference_time, start.radius[q],
+        errors[q] = step_error(one, two, b.position[q] - start.position[q], chunk, reference_time(q), start.radius[q],
                                settings.velocity_weight, settings.dx_min);
       }
       // A coarse member stands in for its finer partners as its prediction: where that missed its
@@ -122,8 +159,10 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
       for (auto [coarse, fine] : touching) {
         if (levels[coarse] < levels[fine]) std::swap(coarse, fine);
         if (levels[coarse] == levels[fine] || start.inv_mass[coarse] == 0 || start.inv_mass[fine] == 0) continue;
-        const Real budget = (half.state().position[fine] - start.position[fine]).norm() +
-                            settings.dx_min * start.radius[fine] * chunk / reference_time;
+        // The finer partner's budget over one step of the coarse member (the miss is its largest over one).
+        const Real coarse_step = std::ldexp(settings.dt_base, levels[coarse]);
+        const Real budget = (half.state().position[fine] - start.position[fine]).norm() * (coarse_step / chunk) +
+                            settings.dx_min * start.radius[fine] * coarse_step / reference_time(fine);
         const Real error = miss[coarse] / budget;
         if (!(error <= errors[coarse])) errors[coarse] = error;
       }

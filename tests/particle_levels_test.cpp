@@ -7,7 +7,10 @@
 //  3. A small mill under particle levels: the collision spectra hold the World's dissipated energy,
 //     the drive work balances dissipation and energy change, and 1 and 3 threads give the same state
 //     and spectra.
-// Expected values come from conservation laws and from fixed-step runs of the same scene.
+//  4. A pile of big and light spheres settling in a box: levels per particle take no more steps than
+//     one level per island, and no particle is pushed down to level_min.
+// Expected values come from conservation laws, from fixed-step runs of the same scene and from the
+// island control.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -22,6 +25,7 @@
 #include "tests/contact_scenes.h"
 #include "tests/doubling_scenes.h"
 #include "tests/mill_scenes.h"
+#include "tests/test_scenes.h"
 #include "tests/thread_support.h"
 
 namespace dem {
@@ -128,6 +132,31 @@ TEST(ParticleLevels, AHeavyBallOnLightOnesStepsCoarserThanThey) {
               coarser_intervals, intervals, dz);
   EXPECT_GT(coarser_intervals, intervals / 2);
   EXPECT_LT(dz, 1e-6);  // a quarter of a thousandth of the radius of the fines
+}
+
+// 27 spheres of 4-5 mm, every third replaced by a light one of 1.5 mm, falling into a box and settling
+// (24 sync intervals, 0.5 s). Members take many steps in a chunk of their island's coarsest member:
+// weighed over the whole chunk against a floor that does not grow with it, a resting member's error
+// can only be met at ever finer steps, and the pile sinks to level_min.
+TEST(ParticleLevels, ASettlingPileOfBigAndLightSpheresStepsNoFinerThanOneLevelPerIsland) {
+  std::uint64_t steps[2] = {0, 0};
+  for (const bool per_particle : {false, true}) {
+    WorldConfig c = falling_box_scene(3, 3, 3, 9);
+    for (std::size_t p = 0; p < c.particles.size(); p += 3) c.particles[p].radius = 0.0015;
+    c.integrator.control = Control::doubling;
+    c.integrator.particle_levels = per_particle;
+    World world(c);
+    for (int s = 0; s < 24; ++s) ASSERT_EQ(world.advance_sync_interval(), StepStatus::ok);
+    ASSERT_GT(world.pair_contacts().size(), 15u) << "the pile has formed";
+    const RunCounters& counters = world.counters();
+    steps[per_particle] = counters.particle_steps;
+    EXPECT_EQ(counters.forced_steps, 0u);
+    ASSERT_FALSE(counters.level_histogram.empty());
+    EXPECT_EQ(counters.level_histogram.front(), 0u) << "steps at level_min";
+  }
+  std::printf("settling pile: %llu particle-steps per particle against %llu per island\n",
+              static_cast<unsigned long long>(steps[1]), static_cast<unsigned long long>(steps[0]));
+  EXPECT_LE(steps[1], steps[0]);
 }
 
 TEST(ParticleLevels, AMillBooksItsSpectraAndBalancesItsEnergyForAnyThreadCount) {
