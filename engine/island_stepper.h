@@ -18,6 +18,7 @@
 #include "engine/exact_stepper.h"
 #include "engine/forces.h"
 #include "engine/materials.h"
+#include "engine/multilevel_stepper.h"
 #include "engine/state.h"
 #include "engine/step_watch.h"
 #include "engine/walls.h"
@@ -79,6 +80,7 @@ struct IslandScratch {
   ContactWorkspace contacts;
   ExactWorkspace exact;
   IslandState full, half;           // the two trials
+  MultilevelGroup levels_full, levels_half;  // the two trials with a level per particle
   std::vector<Vec3> origin;         // member positions at the start of the round [m]
 };
 

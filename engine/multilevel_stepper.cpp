@@ -9,23 +9,34 @@
 namespace dem {
 namespace {
 
-/// The particles `members` of `s` (ascending slots), as a state of their own.
-State select(const State& s, const std::vector<ParticleIndex>& members) {
-  State out;
-  for (ParticleIndex p : members) {
-    out.id.push_back(s.id[p]);
-    out.position.push_back(s.position[p]);
-    out.velocity.push_back(s.velocity[p]);
-    out.angular_velocity.push_back(s.angular_velocity[p]);
-    out.force.push_back(s.force[p]);
-    out.torque.push_back(s.torque[p]);
-    out.radius.push_back(s.radius[p]);
-    out.inv_mass.push_back(s.inv_mass[p]);
-    out.inv_inertia.push_back(s.inv_inertia[p]);
-    out.material.push_back(s.material[p]);
-    out.level.push_back(s.level[p]);
+/// The particles `members` of `s` (ascending slots), as a state of their own in `out`.
+void select(const State& s, const std::vector<ParticleIndex>& members, State& out) {
+  const std::size_t m = members.size();
+  out.id.resize(m), out.position.resize(m), out.velocity.resize(m), out.angular_velocity.resize(m);
+  out.force.resize(m), out.torque.resize(m), out.radius.resize(m), out.inv_mass.resize(m), out.inv_inertia.resize(m);
+  out.material.resize(m), out.level.resize(m);
+  out.index_of_id.clear();
+  for (std::size_t q = 0; q < m; ++q) {
+    const ParticleIndex p = members[q];
+    out.id[q] = s.id[p];
+    out.position[q] = s.position[p];
+    out.velocity[q] = s.velocity[p];
+    out.angular_velocity[q] = s.angular_velocity[p];
+    out.force[q] = s.force[p];
+    out.torque[q] = s.torque[p];
+    out.radius[q] = s.radius[p];
+    out.inv_mass[q] = s.inv_mass[p];
+    out.inv_inertia[q] = s.inv_inertia[p];
+    out.material[q] = s.material[p];
+    out.level[q] = s.level[p];
   }
-  return out;
+}
+
+/// Makes `v` hold `count` elements, keeping the storage of those it already held.
+template <class T>
+void resize_keeping(std::vector<T>& v, std::size_t count) {
+  if (v.size() < count) v.resize(count);
+  v.erase(v.begin() + static_cast<std::ptrdiff_t>(count), v.end());
 }
 
 void flatten_to_plane(Vec3& v) { v.z() = 0; }
@@ -35,9 +46,23 @@ void spin_about_normal(Vec3& w) { w.x() = 0, w.y() = 0; }
 
 MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candidates, Walls& walls,
                                  const MultilevelPhysics& physics, Real time, const std::vector<int>& levels,
-                                 const PairContacts& pairs, const WallContacts& wall_contacts)
-    : physics_(physics), state_(std::move(state)), candidates_(std::move(candidates)), walls_(&walls), time_(time),
-      time0_(time) {
+                                 const PairContacts& pairs, const WallContacts& wall_contacts) {
+  reset(state, candidates, walls, physics, time, levels, pairs, wall_contacts);
+}
+
+void MultilevelGroup::reset(const State& state, const broadphase::CandidatePairs& candidates, Walls& walls,
+                            const MultilevelPhysics& physics, Real time, const std::vector<int>& levels,
+                            const PairContacts& pairs, const WallContacts& wall_contacts) {
+  physics_ = physics;
+  state_ = state;
+  candidates_ = candidates;
+  walls_ = &walls;
+  time_ = time0_ = time;
+  tick_origin_ = 0;
+  ended_dissipation_ = 0;
+  wall_work_ = 0;
+  spectra_ = CollisionSpectra{};
+  particle_steps_ = 0;
   DEM_ASSERT(candidates_.row_count() == state_.size());
   rotation_ = physics_.kernels.uses_rotation;
   parts_ = {physics_.materials->any_friction(), physics_.materials->any_rolling(), physics_.book_events};
@@ -89,9 +114,18 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
   const auto contact_index = [&](std::size_t a, std::size_t b) {
     return level_index(std::min(level_[a], level_[b]));
   };
+  // Every per-level vector keeps the storage it had (a scratch group is reset chunk after chunk).
+  resize_keeping(level_candidates_, count);
+  resize_keeping(neighbours_, count);
+  resize_keeping(compact_, count);
+  resize_keeping(rows_, count);
+  resize_keeping(participants_, count);
+  resize_keeping(members_, count);
+  resize_keeping(wall_contacts_, count);
+  resize_keeping(member_state_, count);
+  resize_keeping(wall_start_, count);
 
   // Candidate pairs by contact level.
-  level_candidates_.assign(count, broadphase::CandidatePairs{});
   for (broadphase::CandidatePairs& c : level_candidates_) c.row_start.assign(n + 1, 0);
   for (std::size_t a = 0; a < n; ++a)
     for (std::uint32_t k = candidates_.row_start[a]; k < candidates_.row_start[a + 1]; ++k)
@@ -100,72 +134,75 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
     for (std::size_t a = 0; a < n; ++a) c.row_start[a + 1] += c.row_start[a];
     c.partner.resize(c.row_start[n]);
   }
-  std::vector<std::uint32_t> fill(count);
+  fill_.resize(count);
   for (std::size_t a = 0; a < n; ++a) {
-    for (std::size_t c = 0; c < count; ++c) fill[c] = level_candidates_[c].row_start[a];
+    for (std::size_t c = 0; c < count; ++c) fill_[c] = level_candidates_[c].row_start[a];
     for (std::uint32_t k = candidates_.row_start[a]; k < candidates_.row_start[a + 1]; ++k) {
       const std::uint32_t b = candidates_.partner[k];
       const std::size_t c = contact_index(a, b);
-      level_candidates_[c].partner[fill[c]++] = b;
+      level_candidates_[c].partner[fill_[c]++] = b;
     }
   }
 
   // Each contact goes to the compact list of its contact level, in key order, and the persistent
   // lists are made from those.
-  std::vector<PairContacts> compact(count);
-  for (PairContacts& c : compact) c.parts = parts_;
+  for (PairContacts& c : compact_) {
+    c.parts = parts_;
+    c.resize(0);
+  }
   for (std::size_t k = 0; k < pairs.size(); ++k) {
-    PairContacts& c = compact[contact_index(pairs.i[k], pairs.j[k])];
+    PairContacts& c = compact_[contact_index(pairs.i[k], pairs.j[k])];
     const std::size_t at = c.size();
     c.resize(at + 1);
     copy_pair(pairs, k, c, at);
   }
-  neighbours_.assign(count, NeighbourContacts{});
   for (std::size_t c = 0; c < count; ++c) {
-    compact[c].index_rows(n);
-    rebuild_neighbours(state_, level_candidates_[c], compact[c], neighbours_[c]);
+    compact_[c].index_rows(n);
+    neighbours_[c].visited_rows.clear();
+    rebuild_neighbours(state_, level_candidates_[c], compact_[c], neighbours_[c]);
   }
-  rebuilt_from_ = std::move(compact);
+  // The lists the persistent ones were rebuilt from: what finish_ended_contacts reads for contacts
+  // left behind. Swapped, so both keep their storage.
+  resize_keeping(rebuilt_from_, count);
+  for (std::size_t c = 0; c < count; ++c) std::swap(rebuilt_from_[c], compact_[c]);
   // Per contact level: the rows that hold its pairs, and the coarser particles in them.
-  rows_.assign(count, {});
-  participants_.assign(count, {});
-  std::vector<std::uint8_t> seen(n);
+  seen_.resize(n);
   for (std::size_t c = 0; c < count; ++c) {
     const broadphase::CandidatePairs& cand = level_candidates_[c];
-    std::fill(seen.begin(), seen.end(), 0);
+    rows_[c].clear();
+    participants_[c].clear();
+    std::fill(seen_.begin(), seen_.end(), 0);
     for (std::size_t a = 0; a < n; ++a) {
       if (cand.row_start[a] == cand.row_start[a + 1]) continue;
       rows_[c].push_back(static_cast<ParticleIndex>(a));
       neighbours_[c].visited_rows.push_back(static_cast<std::uint32_t>(a));
       for (std::uint32_t k = cand.row_start[a]; k < cand.row_start[a + 1]; ++k)
         for (const std::size_t p : {a, std::size_t{cand.partner[k]}})
-          if (level_index(level_[p]) > c) seen[p] = 1;
+          if (level_index(level_[p]) > c) seen_[p] = 1;
     }
     for (std::size_t p = 0; p < n; ++p)
-      if (seen[p]) participants_[c].push_back(static_cast<ParticleIndex>(p));
+      if (seen_[p]) participants_[c].push_back(static_cast<ParticleIndex>(p));
   }
 
   // Members, their states and wall contacts by particle level.
-  std::vector<std::uint32_t> member_index(n);
-  members_.assign(count, {});
+  member_index_.resize(n);
+  for (auto& m : members_) m.clear();
   for (std::size_t p = 0; p < n; ++p) {
     std::vector<ParticleIndex>& m = members_[level_index(level_[p])];
-    member_index[p] = static_cast<std::uint32_t>(m.size());
+    member_index_[p] = static_cast<std::uint32_t>(m.size());
     m.push_back(static_cast<ParticleIndex>(p));
   }
-  wall_contacts_.assign(count, WallContacts{});
+  for (WallContacts& w : wall_contacts_) w.resize(0);
   for (std::size_t k = 0; k < wall_contacts.size(); ++k) {
     const ParticleIndex p = wall_contacts.particle[k];
     WallContacts& w = wall_contacts_[level_index(level_[p])];
     const std::size_t at = w.size();
     w.resize(at + 1);
     copy_wall(wall_contacts, k, w, at);
-    w.particle[at] = member_index[p];
+    w.particle[at] = member_index_[p];
   }
-  member_state_.assign(count, State{});
-  wall_start_.assign(count, {});
   for (std::size_t l = 0; l < count; ++l) {
-    member_state_[l] = select(state_, members_[l]);
+    select(state_, members_[l], member_state_[l]);
     wall_start_[l].assign(members_[l].size() + 1, 0);
   }
 }

@@ -47,6 +47,8 @@ struct MultilevelPhysics {
 
 class MultilevelGroup {
  public:
+  /// An empty group, to be set by reset() (a scratch reused from chunk to chunk keeps its storage).
+  MultilevelGroup() = default;
   /// Takes the group's particles (slots in id order), its candidate pairs and its walls (which it
   /// sets to each tick's time; they must outlive it) at `time` [s], sets the levels (one per particle, each at least physics.level_min) and evaluates every
   /// contact there without advancing its springs (h = 0), as a run's first evaluation does.
@@ -58,6 +60,12 @@ class MultilevelGroup {
   MultilevelGroup(State state, broadphase::CandidatePairs candidates, Walls& walls,
                   const MultilevelPhysics& physics, Real time, const std::vector<int>& levels,
                   const PairContacts& pairs, const WallContacts& wall_contacts);
+
+  /// What the second constructor does, into this group's storage: no allocation once its vectors
+  /// have grown to the largest group it held.
+  void reset(const State& state, const broadphase::CandidatePairs& candidates, Walls& walls,
+             const MultilevelPhysics& physics, Real time, const std::vector<int>& levels, const PairContacts& pairs,
+             const WallContacts& wall_contacts);
 
   /// New levels (at a time every old and new step divides); contacts keep their history and last force.
   void set_levels(const std::vector<int>& levels);
@@ -136,7 +144,7 @@ class MultilevelGroup {
   State state_;
   State view_;  // the state contacts are evaluated in: actual or predicted positions, mean velocities
   broadphase::CandidatePairs candidates_;
-  Walls* walls_;
+  Walls* walls_ = nullptr;
   Real time_ = 0;
   Real time0_ = 0;  // at construction [s]
   std::int64_t tick_origin_ = 0;  // ticks since construction at the start of the current advance
@@ -161,6 +169,10 @@ class MultilevelGroup {
   // among their sides (the ones predicted when its contacts are evaluated).
   std::vector<std::vector<ParticleIndex>> rows_;
   std::vector<std::vector<ParticleIndex>> participants_;
+  // Scratch of distribute().
+  std::vector<PairContacts> compact_;
+  std::vector<std::uint32_t> fill_, member_index_;
+  std::vector<std::uint8_t> seen_;
 
   std::vector<Step> step_;
   std::vector<TickLoad> load_;                 // zero but for the particles in loaded_list_

@@ -68,10 +68,14 @@ void stability_levels(const IslandState& island, const MaterialTable& materials,
 }  // namespace
 
 void advance_island_per_particle(IslandState& island, const broadphase::CandidatePairs& candidates,
-                                 const IslandPhysics& physics, const DoublingSettings& settings, Walls& walls, Real t0,
+                                 const IslandPhysics& physics, const DoublingSettings& settings, IslandScratch& scratch,
+                                 Real t0,
                                  std::int64_t begin, std::int64_t end, std::vector<int>& levels,
                                  DoublingCounters& counters) {
   const std::size_t n = island.state.size();
+  Walls& walls = scratch.walls;
+  MultilevelGroup& full = scratch.levels_full;
+  MultilevelGroup& half = scratch.levels_half;
   const int level_min = settings.level_min;
   const Real finest = std::ldexp(settings.dt_base, level_min);
   const std::size_t level_count = static_cast<std::size_t>(settings.level_max - level_min + 1);
@@ -130,9 +134,9 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
     const State& start = island.state;
     for (;;) {
       for (std::size_t q = 0; q < n; ++q) halves[q] = std::max(levels[q] - 1, level_min);
-      MultilevelGroup full(start, candidates, walls, mp, t, levels, island.pairs, island.walls);
+      full.reset(start, candidates, walls, mp, t, levels, island.pairs, island.walls);
       full.advance(ticks);
-      MultilevelGroup half(start, candidates, walls, mp, t, halves, island.pairs, island.walls);
+      half.reset(start, candidates, walls, mp, t, halves, island.pairs, island.walls);
       half.advance(ticks);
       const std::uint64_t steps = full.particle_steps() + half.particle_steps();
       counters.particle_steps += steps;

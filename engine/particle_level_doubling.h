@@ -17,10 +17,11 @@ namespace dem {
 
 /// Advances `island` from tick `begin` to `end` of the interval starting at t0 [s] (one step of the
 /// round's level, settings.level_max). `levels` holds each member's level: in, where it starts (clamped
-/// to the round and lowered by collision anticipation); out, the level of its next step. `walls` is
-/// scratch the trials set to their times.
+/// to the round and lowered by collision anticipation); out, the level of its next step. `scratch`
+/// holds the walls the trials set to their times and the two trials' groups.
 void advance_island_per_particle(IslandState& island, const broadphase::CandidatePairs& candidates,
-                                 const IslandPhysics& physics, const DoublingSettings& settings, Walls& walls, Real t0,
+                                 const IslandPhysics& physics, const DoublingSettings& settings, IslandScratch& scratch,
+                                 Real t0,
                                  std::int64_t begin, std::int64_t end, std::vector<int>& levels,
                                  DoublingCounters& counters);
 

@@ -317,7 +317,7 @@ void World::run_islands(const std::vector<std::uint32_t>& which, std::int64_t ti
     std::vector<int>& levels = job.levels;
     levels.assign(job.island.state.level.begin(), job.island.state.level.end());
     if (per_particle) {
-      advance_island_per_particle(job.island, job.candidates, d.physics, settings, d.scratch.local().walls, t0,
+      advance_island_per_particle(job.island, job.candidates, d.physics, settings, d.scratch.local(), t0,
                                   tick, end, levels, d.counters.local());
     } else {
       const int start_level = *std::min_element(levels.begin(), levels.end());
