@@ -58,6 +58,7 @@ struct IslandPhysics {
   bool walls_move = false;
   DashpotVelocity dashpot;
   bool book_events = false;  // log ended contacts for collision spectra (the World books them)
+  Real wall_margin = 0;      // margin of the wall lists of levels per particle [m] (MultilevelPhysics)
 };
 
 /// The error control of one round.

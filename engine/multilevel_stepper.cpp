@@ -124,6 +124,8 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
   resize_keeping(wall_contacts_, count);
   resize_keeping(member_state_, count);
   resize_keeping(wall_start_, count);
+  resize_keeping(wall_lists_, count);
+  for (WallLists& lists : wall_lists_) lists.clear();  // their particles change
 
   // Candidate pairs by contact level.
   for (broadphase::CandidatePairs& c : level_candidates_) c.row_start.assign(n + 1, 0);
@@ -238,8 +240,14 @@ void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
     sub.velocity[q] = view_.velocity[p];
     sub.angular_velocity[q] = view_.angular_velocity[p];
   }
+  const WallLists* lists = nullptr;
+  if (physics_.wall_margin > 0) {
+    WallLists& level_lists = wall_lists_[c];
+    if (!level_lists.valid(sub, *walls_)) level_lists.build(sub, *walls_, physics_.wall_margin);
+    lists = &level_lists;
+  }
   ended_dissipation_ +=
-      update_wall_contacts(sub, *walls_, *physics_.materials, wall_contacts_[c], workspace_, wall_start_[c]);
+      update_wall_contacts(sub, *walls_, *physics_.materials, wall_contacts_[c], workspace_, wall_start_[c], lists);
   if (physics_.book_events) spectra_.record_ended(workspace_.walls, wall_contacts_[c]);
   physics_.kernels.wall_forces(sub, *physics_.materials, *walls_, wall_contacts_[c], h, dashpot);
   // Work of moving walls, with the forces at the end of the step (a rectangle rule, as the fixed step's).

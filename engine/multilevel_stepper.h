@@ -29,6 +29,7 @@
 #include "engine/forces.h"
 #include "engine/neighbour_contacts.h"
 #include "engine/state.h"
+#include "engine/wall_lists.h"
 #include "engine/walls.h"
 
 namespace dem {
@@ -43,6 +44,9 @@ struct MultilevelPhysics {
   int level_min = 0;  // the finest level: a tick is dt_base * 2^level_min
   bool walls_move = false;   // book the moving walls' work (wall_work)
   bool book_events = false;  // book ended contacts for collision spectra (spectra)
+  // Wall lists (wall_lists.h) per particle level with this margin [m], so that a particle is tested
+  // only against the walls near it; 0: against every wall. The contacts are the same either way.
+  Real wall_margin = 0;
 };
 
 class MultilevelGroup {
@@ -163,6 +167,7 @@ class MultilevelGroup {
   std::vector<State> member_state_;
   std::vector<WallContacts> wall_contacts_;
   std::vector<std::vector<std::uint32_t>> wall_start_;
+  std::vector<WallLists> wall_lists_;
   ContactWorkspace workspace_;
 
   // Per contact level index: the rows holding its candidate pairs, and the particles coarser than it

@@ -65,6 +65,55 @@ void stability_levels(const IslandState& island, const MaterialTable& materials,
   }
 }
 
+/// The level whose step is t_c / 8 of a contact of stiffness k between masses of inverse sum inv_m.
+int contact_resolving_level(Real k, Real inv_m, const DoublingSettings& settings) {
+  if (!(k > 0) || !(inv_m > 0)) return settings.level_max;
+  const Real step = std::acos(-1.0) / std::sqrt(k * inv_m) / 8;
+  return static_cast<int>(std::clamp(std::floor(std::log2(step / settings.dt_base)), Real(settings.level_min),
+                                     Real(settings.level_max)));
+}
+
+/// Collision anticipation per member: a pair of the island that is apart and could close more than
+/// half its gap within the chunk (the step of the coarsest member, `chunk_level`) caps both sides at
+/// the level that resolves its contact; likewise a member and a wall feature it may reach within the
+/// chunk. Walls must be at the chunk's time.
+void anticipate_per_member(const IslandState& island, const broadphase::CandidatePairs& candidates,
+                           const MaterialTable& materials, const Walls& walls, const Vec3& gravity,
+                           const DoublingSettings& settings, int chunk_level, std::vector<int>& levels) {
+  const State& s = island.state;
+  const Real h = std::ldexp(settings.dt_base, chunk_level);
+  const auto acceleration = [&](std::size_t q) -> Vec3 {
+    return s.inv_mass[q] == 0 ? Vec3(Vec3::Zero()) : Vec3(s.inv_mass[q] * s.force[q] + gravity);
+  };
+  for (std::size_t a = 0; a < s.size(); ++a) {
+    for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
+      const std::size_t b = candidates.partner[k];
+      const Real inv_m = s.inv_mass[a] + s.inv_mass[b];
+      if (inv_m == 0) continue;
+      const Real gap = (s.position[a] - s.position[b]).norm() - s.radius[a] - s.radius[b];
+      if (gap <= 0) continue;  // in contact: the error control's business
+      const Real closing = (s.velocity[a] - s.velocity[b]).norm() * h +
+                           0.5 * (acceleration(a) - acceleration(b)).norm() * h * h;
+      if (2 * closing <= gap) continue;
+      const int resolving =
+          contact_resolving_level(materials.params(materials.pair_class(s.material[a], s.material[b])).k_n, inv_m, settings);
+      levels[a] = std::min(levels[a], resolving);
+      levels[b] = std::min(levels[b], resolving);
+    }
+    if (s.inv_mass[a] == 0) continue;
+    for (std::size_t w = 0; w < walls.count(); ++w) {
+      const Real closing = (s.velocity[a] - walls.velocity_at(w, s.position[a])).norm() * h +
+                           0.5 * acceleration(a).norm() * h * h;
+      // A wall feature within twice the closing distance that is not touched yet.
+      if (walls.touching_count(w, s.position[a], s.radius[a] + 2 * closing) <=
+          walls.touching_count(w, s.position[a], s.radius[a]))
+        continue;
+      levels[a] = std::min(levels[a], contact_resolving_level(
+          materials.params(materials.pair_class(s.material[a], walls.material(w))).k_n, s.inv_mass[a], settings));
+    }
+  }
+}
+
 }  // namespace
 
 void advance_island_per_particle(IslandState& island, const broadphase::CandidatePairs& candidates,
@@ -89,6 +138,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
   mp.level_min = level_min;
   mp.walls_move = physics.walls_move;
   mp.book_events = physics.book_events;
+  mp.wall_margin = physics.wall_margin;
   const std::vector<Vec3> origin = island.state.position;
   island.excursion.assign(n, 0);
   island.level_spectra.clear();
@@ -107,15 +157,10 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
       highest = std::max(highest, l);
     }
     const Real t = t0 + static_cast<Real>(tick) * finest;
-    // No member above the level at which an approaching pair of the island could be stepped over.
-    if (highest > settings.contact_level) {
-      walls.set_time(t);
-      const int cap = anticipation_level(island, candidates, walls, physics.gravity, settings.dt_base, highest,
-                                         settings.contact_level);
-      highest = level_min;
-      for (int& l : levels) highest = std::max(highest, l = std::min(l, cap));
-    }
-    // No member above the level that resolves its own springs.
+    // No member of an approaching pair above the level that resolves its contact, and none above the
+    // level that keeps it stable on the springs it touches.
+    walls.set_time(t);
+    anticipate_per_member(island, candidates, *physics.materials, walls, physics.gravity, settings, highest, levels);
     stability_levels(island, *physics.materials, walls, settings, stability);
     highest = level_min;
     for (std::size_t q = 0; q < n; ++q) highest = std::max(highest, levels[q] = std::min(levels[q], stability[q]));

@@ -74,7 +74,8 @@ void World::init_doubling() {
   doubling_ = std::make_unique<DoublingWork>(exemplar);
   DoublingWork& d = *doubling_;
   d.physics = IslandPhysics{&materials_, kernels_, gravity_, config_.model.dimension, c.method,
-                            config_.model.separation, walls_move_, dashpot_velocity(), spectra_ != nullptr};
+                            config_.model.separation, walls_move_, dashpot_velocity(), spectra_ != nullptr,
+                            use_wall_lists_ ? skin_ : 0};
   for (auto& level : state_.level) level = static_cast<std::int8_t>(std::clamp(0, c.level_min, c.level_max));
   // Anticipation demotes an approaching particle down to a step of t_c / 8 for the stiffest contact
   // and the lightest pair (m* = m / 2), the most a contact may need to be resolved.
