@@ -73,14 +73,11 @@ int contact_resolving_level(Real k, Real inv_m, const DoublingSettings& settings
                                      Real(settings.level_max)));
 }
 
-/// Collision anticipation per member: a pair of the island that is apart and could close more than
-/// half its gap within the chunk (the step of the coarsest member, `chunk_level`) caps both sides at
-/// the level that resolves its contact; likewise a member and a wall feature it may reach within the
-/// chunk. Walls must be at the chunk's time.
-void anticipate_per_member(const IslandState& island, const broadphase::CandidatePairs& candidates,
-                           const MaterialTable& materials, const Walls& walls, const Vec3& gravity,
-                           const DoublingSettings& settings, int chunk_level, std::vector<int>& levels) {
-  const State& s = island.state;
+}  // namespace
+
+void anticipate_per_pair(const State& s, const broadphase::CandidatePairs& candidates, const MaterialTable& materials,
+                         const Walls& walls, const Vec3& gravity, const DoublingSettings& settings, int chunk_level,
+                         std::vector<int>& levels) {
   const Real h = std::ldexp(settings.dt_base, chunk_level);
   const auto acceleration = [&](std::size_t q) -> Vec3 {
     return s.inv_mass[q] == 0 ? Vec3(Vec3::Zero()) : Vec3(s.inv_mass[q] * s.force[q] + gravity);
@@ -95,8 +92,8 @@ void anticipate_per_member(const IslandState& island, const broadphase::Candidat
       const Real closing = (s.velocity[a] - s.velocity[b]).norm() * h +
                            0.5 * (acceleration(a) - acceleration(b)).norm() * h * h;
       if (2 * closing <= gap) continue;
-      const int resolving =
-          contact_resolving_level(materials.params(materials.pair_class(s.material[a], s.material[b])).k_n, inv_m, settings);
+      const Real k_n = materials.params(materials.pair_class(s.material[a], s.material[b])).k_n;
+      const int resolving = contact_resolving_level(k_n, inv_m, settings);
       levels[a] = std::min(levels[a], resolving);
       levels[b] = std::min(levels[b], resolving);
     }
@@ -108,13 +105,11 @@ void anticipate_per_member(const IslandState& island, const broadphase::Candidat
       if (walls.touching_count(w, s.position[a], s.radius[a] + 2 * closing) <=
           walls.touching_count(w, s.position[a], s.radius[a]))
         continue;
-      levels[a] = std::min(levels[a], contact_resolving_level(
-          materials.params(materials.pair_class(s.material[a], walls.material(w))).k_n, s.inv_mass[a], settings));
+      const Real k_n = materials.params(materials.pair_class(s.material[a], walls.material(w))).k_n;
+      levels[a] = std::min(levels[a], contact_resolving_level(k_n, s.inv_mass[a], settings));
     }
   }
 }
-
-}  // namespace
 
 void advance_island_per_particle(IslandState& island, const broadphase::CandidatePairs& candidates,
                                  const IslandPhysics& physics, const DoublingSettings& settings, IslandScratch& scratch,
@@ -160,7 +155,8 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
     // No member of an approaching pair above the level that resolves its contact, and none above the
     // level that keeps it stable on the springs it touches.
     walls.set_time(t);
-    anticipate_per_member(island, candidates, *physics.materials, walls, physics.gravity, settings, highest, levels);
+    anticipate_per_pair(island.state, candidates, *physics.materials, walls, physics.gravity, settings, highest,
+                        levels);
     stability_levels(island, *physics.materials, walls, settings, stability);
     highest = level_min;
     for (std::size_t q = 0; q < n; ++q) highest = std::max(highest, levels[q] = std::min(levels[q], stability[q]));

@@ -7,7 +7,9 @@
 //  3. A small mill under particle levels: the collision spectra hold the World's dissipated energy,
 //     the drive work balances dissipation and energy change, and 1 and 3 threads give the same state
 //     and spectra.
-//  4. A pile of big and light spheres settling in a box: levels per particle take no more steps than
+//  4. Collision anticipation per pair caps an approaching pair at its own contact's level and no other
+//     particle.
+//  5. A pile of big and light spheres settling in a box: levels per particle take no more steps than
 //     one level per island, and no particle is pushed down to level_min.
 // Expected values come from conservation laws, from fixed-step runs of the same scene and from the
 // island control.
@@ -20,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/particle_level_doubling.h"
 #include "engine/scene_loader.h"
 #include "engine/world.h"
 #include "tests/contact_scenes.h"
@@ -132,6 +135,46 @@ TEST(ParticleLevels, AHeavyBallOnLightOnesStepsCoarserThanThey) {
               coarser_intervals, intervals, dz);
   EXPECT_GT(coarser_intervals, intervals / 2);
   EXPECT_LT(dz, 1e-6);  // a quarter of a thousandth of the radius of the fines
+}
+
+// Anticipation per pair: two 100 g balls closing on each other within the chunk are capped at the
+// level that resolves their contact (t_c / 8 with their m* = 50 g); two 0.2 g balls nearly touching
+// but not closing, and one far away, keep their levels (one cap for the whole island would hold them
+// all at the approaching pair's level, or at the light pair's).
+TEST(ParticleLevels, AnApproachingPairIsCappedAtItsOwnContactsLevelAndNoOtherParticleIs) {
+  WorldConfig c = base_config(1e-5);
+  ContactConfig contact;
+  contact.normal_stiffness = 1e6;
+  contact.normal_damping = {DampingKind::restitution, 0.5};
+  c.contacts = {contact};
+  const Real big = 0.02, small = 0.004;
+  c.particles = {particle(Vec3(0, 0, 0), Vec3::Zero(), big, 0.1),
+                 particle(Vec3(2 * big + 1e-3, 0, 0), Vec3(-1, 0, 0), big, 0.1),  // 1 mm apart, closing at 1 m/s
+                 particle(Vec3(0, 0.1, 0), Vec3(0.3, 0, 0), small, 2e-4),
+                 particle(Vec3(2 * small + 1e-4, 0.1, 0), Vec3(0.3, 0, 0), small, 2e-4),  // same velocity
+                 particle(Vec3(0, -0.1, 0), Vec3(0, 1, 0), small, 2e-4)};
+  const World world(c);
+  broadphase::CandidatePairs candidates;  // every pair
+  const std::uint32_t n = 5;
+  candidates.row_start.assign(1, 0);
+  for (std::uint32_t a = 0; a < n; ++a) {
+    for (std::uint32_t b = a + 1; b < n; ++b) candidates.partner.push_back(b);
+    candidates.row_start.push_back(static_cast<std::uint32_t>(candidates.partner.size()));
+  }
+  DoublingSettings settings;
+  settings.dt_base = 1e-5, settings.level_min = -6, settings.level_max = 6;
+  const int chunk_level = 6;  // 0.64 ms: the heavy pair closes 0.64 mm of its 1 mm gap
+  std::vector<int> levels(n, chunk_level);
+  anticipate_per_pair(world.state(), candidates, world.materials(), Walls{}, Vec3::Zero(), settings, chunk_level,
+                      levels);
+  // t_c / 8 = pi sqrt(m* / k) / 8 = 8.8e-5 s for the heavy pair: level 3 (8e-5 s).
+  const int heavy = static_cast<int>(std::floor(std::log2(std::acos(-1.0) * std::sqrt(0.05 / 1e6) / 8 / 1e-5)));
+  ASSERT_EQ(heavy, 3);
+  EXPECT_EQ(levels, (std::vector<int>{heavy, heavy, chunk_level, chunk_level, chunk_level}));
+  // At a chunk of level 5 the heavy pair closes 0.32 mm of its gap: more than 2 steps away, no cap.
+  std::vector<int> finer(n, 5);
+  anticipate_per_pair(world.state(), candidates, world.materials(), Walls{}, Vec3::Zero(), settings, 5, finer);
+  EXPECT_EQ(finer, std::vector<int>(n, 5));
 }
 
 // 27 spheres of 4-5 mm, every third replaced by a light one of 1.5 mm, falling into a box and settling
