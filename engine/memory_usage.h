@@ -7,6 +7,7 @@
 
 #include "broadphase/candidate_pairs.h"
 #include "engine/contacts.h"
+#include "engine/neighbour_contacts.h"
 #include "engine/state.h"
 
 namespace dem {
@@ -28,5 +29,6 @@ std::size_t heap_bytes(const WallContacts& c);
 std::size_t heap_bytes(const ContactAdjacency& a);
 std::size_t heap_bytes(const ContactWorkspace& w);
 std::size_t heap_bytes(const broadphase::CandidatePairs& c);
+std::size_t heap_bytes(const NeighbourContacts& nb);
 
 }  // namespace dem

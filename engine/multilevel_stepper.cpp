@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "engine/checks.h"
+#include "engine/memory_usage.h"
 
 namespace dem {
 namespace {
@@ -497,6 +498,22 @@ PairContacts MultilevelGroup::pair_contacts() const {
   }
   out.index_rows(n);
   return out;
+}
+
+std::size_t MultilevelGroup::memory_bytes() const {
+  std::size_t total = heap_bytes(state_) + heap_bytes(view_) + heap_bytes(candidates_) + heap_bytes(level_) +
+                      heap_bytes(workspace_) + heap_bytes(step_) + heap_bytes(load_) + heap_bytes(loaded_) +
+                      heap_bytes(loaded_list_) + heap_bytes(excursion_) + heap_bytes(miss_) + heap_bytes(origin_) +
+                      heap_bytes(fill_) + heap_bytes(member_index_) + heap_bytes(seen_);
+  const auto each = [&](const auto& per_level) {
+    total += heap_bytes(per_level);
+    for (const auto& item : per_level) total += heap_bytes(item);
+  };
+  each(level_candidates_), each(neighbours_), each(rebuilt_from_), each(compact_), each(members_),
+      each(member_state_), each(wall_contacts_), each(wall_start_), each(rows_), each(participants_);
+  total += heap_bytes(wall_lists_);
+  for (const WallLists& lists : wall_lists_) total += lists.memory_bytes();
+  return total;
 }
 
 }  // namespace dem

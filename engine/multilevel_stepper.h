@@ -65,8 +65,8 @@ class MultilevelGroup {
                   const MultilevelPhysics& physics, Real time, const std::vector<int>& levels,
                   const PairContacts& pairs, const WallContacts& wall_contacts);
 
-  /// What the second constructor does, into this group's storage: no allocation once its vectors
-  /// have grown to the largest group it held.
+  /// What the second constructor does, into this group's storage: the per-particle and per-contact
+  /// vectors keep their capacity, so a scratch group reset chunk after chunk allocates little.
   void reset(const State& state, const broadphase::CandidatePairs& candidates, Walls& walls,
              const MultilevelPhysics& physics, Real time, const std::vector<int>& levels, const PairContacts& pairs,
              const WallContacts& wall_contacts);
@@ -100,6 +100,8 @@ class MultilevelGroup {
   const CollisionSpectra& spectra() const { return spectra_; }
   /// Particle-steps taken so far: each particle's steps, summed.
   std::uint64_t particle_steps() const { return particle_steps_; }
+  /// Heap bytes held (memory_usage.h: by capacity).
+  std::size_t memory_bytes() const;
 
  private:
   /// The force or torque a particle receives at one tick: the plain sum (for the next step's start

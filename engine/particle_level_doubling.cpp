@@ -145,25 +145,36 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
   // Chunk by chunk: a chunk is one step of the island's coarsest member, so levels change (and
   // promote) at every chunk, not once per round.
   for (std::int64_t tick = begin; tick < end;) {
-    // Each member's step starts here on its own grid and ends within the round.
-    int highest = level_min;
-    for (int& l : levels) {
-      l = aligned_level(std::clamp(l, level_min, settings.level_max), level_min, tick, end);
-      highest = std::max(highest, l);
-    }
+    // Each member's step starts here on its own grid and ends within the round. The chunk is the
+    // longest step of a movable member (an immovable one takes the chunk's level, below).
+    const auto movable = [&](std::size_t q) { return island.state.inv_mass[q] != 0; };
+    const auto coarsest = [&] {
+      int highest = level_min, any = level_min;
+      for (std::size_t q = 0; q < n; ++q) {
+        any = std::max(any, levels[q]);
+        if (movable(q)) highest = std::max(highest, levels[q]);
+      }
+      return std::any_of(island.state.inv_mass.begin(), island.state.inv_mass.end(), [](Real w) { return w != 0; })
+                 ? highest
+                 : any;
+    };
+    for (int& l : levels) l = aligned_level(std::clamp(l, level_min, settings.level_max), level_min, tick, end);
+    int highest = coarsest();
     const Real t = t0 + static_cast<Real>(tick) * finest;
-    // No member of an approaching pair above the level that resolves its contact, and none above the
-    // level that keeps it stable on the springs it touches.
+    // No member of an approaching pair above the level that resolves its contact (never below
+    // contact_level, which resolves the stiffest, lightest pair: nothing to cap at or under it), and
+    // none above the level that keeps it stable on the springs it touches.
     walls.set_time(t);
-    anticipate_per_pair(island.state, candidates, *physics.materials, walls, physics.gravity, settings, highest,
-                        levels);
+    if (highest > settings.contact_level)
+      anticipate_per_pair(island.state, candidates, *physics.materials, walls, physics.gravity, settings, highest,
+                          levels);
     stability_levels(island, *physics.materials, walls, settings, stability);
-    highest = level_min;
-    for (std::size_t q = 0; q < n; ++q) highest = std::max(highest, levels[q] = std::min(levels[q], stability[q]));
+    for (std::size_t q = 0; q < n; ++q) levels[q] = std::min(levels[q], stability[q]);
+    highest = coarsest();
     // An immovable member's prediction is its path: it takes the longest step, and its contacts the
     // levels of its partners.
     for (std::size_t q = 0; q < n; ++q)
-      if (island.state.inv_mass[q] == 0) levels[q] = highest;
+      if (!movable(q)) levels[q] = highest;
     const std::int64_t ticks = ticks_of_level(highest, level_min);
     const Real chunk = static_cast<Real>(ticks) * finest;
     // The time over which a member's error is weighed (step_control.h): the run's reference time,

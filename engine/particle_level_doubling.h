@@ -26,7 +26,8 @@ void anticipate_per_pair(const State& state, const broadphase::CandidatePairs& c
 
 /// Advances `island` from tick `begin` to `end` of the interval starting at t0 [s] (one step of the
 /// round's level, settings.level_max). `levels` holds each member's level: in, where it starts (clamped
-/// to the round and lowered by collision anticipation); out, the level of its next step. `scratch`
+/// to the round and lowered by collision anticipation and by its stability); out, the level of its
+/// next step. `scratch`
 /// holds the walls the trials set to their times and the two trials' groups.
 void advance_island_per_particle(IslandState& island, const broadphase::CandidatePairs& candidates,
                                  const IslandPhysics& physics, const DoublingSettings& settings, IslandScratch& scratch,

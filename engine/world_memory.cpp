@@ -24,14 +24,6 @@ std::size_t island_bytes(const IslandState& s) {
          heap_bytes(s.excursion) + heap_bytes(s.exact_history);
 }
 
-std::size_t neighbour_bytes(const NeighbourContacts& nb) {
-  return heap_bytes(nb.list) + heap_bytes(nb.touching) + heap_bytes(nb.moment) + heap_bytes(nb.reverse_start) +
-         heap_bytes(nb.reverse_slot) + heap_bytes(nb.row_ended) + heap_bytes(nb.row_has_ended) +
-         heap_bytes(nb.row_deepest) + heap_bytes(nb.row_deepest_slot) + heap_bytes(nb.left_behind) +
-         heap_bytes(nb.left_key) + heap_bytes(nb.left_dissipated) + heap_bytes(nb.left_start) +
-         heap_bytes(nb.inherited) + heap_bytes(nb.cursor);
-}
-
 // Islands, their cut-out copies and the per-thread trials of step doubling.
 std::size_t doubling_bytes(DoublingWork& d) {
   const Islands& is = d.islands;
@@ -42,7 +34,7 @@ std::size_t doubling_bytes(DoublingWork& d) {
   for (const IslandJob& job : d.jobs) total += island_bytes(job.island) + heap_bytes(job.candidates);
   d.scratch.for_each([&](const IslandScratch& s) {
     total += heap_bytes(s.contacts) + exact_bytes(s.exact) + island_bytes(s.full) + island_bytes(s.half) +
-             heap_bytes(s.origin);
+             heap_bytes(s.origin) + s.levels_full.memory_bytes() + s.levels_half.memory_bytes();
   });
   return total;
 }
@@ -57,7 +49,7 @@ std::vector<MemoryPart> World::memory_breakdown() const {
   parts.push_back({"k-d tree", kd_tree_.memory_bytes()});
   parts.push_back({"candidate pairs", heap_bytes(candidates_)});
   parts.push_back({"pair contacts", heap_bytes(pairs_) + heap_bytes(compact_scratch_)});
-  parts.push_back({"persistent pair list", neighbour_bytes(neighbours_)});
+  parts.push_back({"persistent pair list", heap_bytes(neighbours_)});
   parts.push_back({"wall contacts", heap_bytes(wall_contacts_)});
   parts.push_back({"wall lists", wall_lists_.memory_bytes()});
   parts.push_back({"contact workspace", heap_bytes(workspace_)});

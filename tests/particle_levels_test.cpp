@@ -138,9 +138,10 @@ TEST(ParticleLevels, AHeavyBallOnLightOnesStepsCoarserThanThey) {
 }
 
 // Anticipation per pair: two 100 g balls closing on each other within the chunk are capped at the
-// level that resolves their contact (t_c / 8 with their m* = 50 g); two 0.2 g balls nearly touching
-// but not closing, and one far away, keep their levels (one cap for the whole island would hold them
-// all at the approaching pair's level, or at the light pair's).
+// level that resolves their contact (t_c / 8 with their m* = 50 g), a ball closing on a wall at that of
+// its wall contact (m* = m); two 0.2 g balls nearly touching but not closing, and one far away, keep
+// their levels (one cap for the whole island would hold them all at the approaching pair's level, or
+// at the light pair's).
 TEST(ParticleLevels, AnApproachingPairIsCappedAtItsOwnContactsLevelAndNoOtherParticleIs) {
   WorldConfig c = base_config(1e-5);
   ContactConfig contact;
@@ -152,10 +153,12 @@ TEST(ParticleLevels, AnApproachingPairIsCappedAtItsOwnContactsLevelAndNoOtherPar
                  particle(Vec3(2 * big + 1e-3, 0, 0), Vec3(-1, 0, 0), big, 0.1),  // 1 mm apart, closing at 1 m/s
                  particle(Vec3(0, 0.1, 0), Vec3(0.3, 0, 0), small, 2e-4),
                  particle(Vec3(2 * small + 1e-4, 0.1, 0), Vec3(0.3, 0, 0), small, 2e-4),  // same velocity
-                 particle(Vec3(0, -0.1, 0), Vec3(0, 1, 0), small, 2e-4)};
+                 particle(Vec3(0, -0.1, 0), Vec3(0, 1, 0), small, 2e-4),
+                 particle(Vec3(-0.2 + big + 1e-3, 0.3, 0), Vec3(-1, 0, 0), big, 0.4)};  // 1 mm from the wall
+  c.walls = {plane(Vec3(-0.2, 0, 0), Vec3(1, 0, 0))};
   const World world(c);
   broadphase::CandidatePairs candidates;  // every pair
-  const std::uint32_t n = 5;
+  const std::uint32_t n = 6;
   candidates.row_start.assign(1, 0);
   for (std::uint32_t a = 0; a < n; ++a) {
     for (std::uint32_t b = a + 1; b < n; ++b) candidates.partner.push_back(b);
@@ -165,15 +168,19 @@ TEST(ParticleLevels, AnApproachingPairIsCappedAtItsOwnContactsLevelAndNoOtherPar
   settings.dt_base = 1e-5, settings.level_min = -6, settings.level_max = 6;
   const int chunk_level = 6;  // 0.64 ms: the heavy pair closes 0.64 mm of its 1 mm gap
   std::vector<int> levels(n, chunk_level);
-  anticipate_per_pair(world.state(), candidates, world.materials(), Walls{}, Vec3::Zero(), settings, chunk_level,
-                      levels);
-  // t_c / 8 = pi sqrt(m* / k) / 8 = 8.8e-5 s for the heavy pair: level 3 (8e-5 s).
-  const int heavy = static_cast<int>(std::floor(std::log2(std::acos(-1.0) * std::sqrt(0.05 / 1e6) / 8 / 1e-5)));
-  ASSERT_EQ(heavy, 3);
-  EXPECT_EQ(levels, (std::vector<int>{heavy, heavy, chunk_level, chunk_level, chunk_level}));
-  // At a chunk of level 5 the heavy pair closes 0.32 mm of its gap: more than 2 steps away, no cap.
+  anticipate_per_pair(world.state(), candidates, world.materials(), world.walls(), Vec3::Zero(), settings,
+                      chunk_level, levels);
+  // t_c / 8 = pi sqrt(m* / k) / 8: 8.8e-5 s for the heavy pair (level 3, 8e-5 s); 2.5e-4 s for the 0.4 kg
+  // ball against the wall, m* = m (level 4).
+  const auto resolving = [](Real m_star) {
+    return static_cast<int>(std::floor(std::log2(std::acos(-1.0) * std::sqrt(m_star / 1e6) / 8 / 1e-5)));
+  };
+  ASSERT_EQ(resolving(0.05), 3);
+  ASSERT_EQ(resolving(0.4), 4);
+  EXPECT_EQ(levels, (std::vector<int>{3, 3, chunk_level, chunk_level, chunk_level, 4}));
+  // At a chunk of level 5 both close 0.32 mm of their 1 mm gaps: more than two steps away, no cap.
   std::vector<int> finer(n, 5);
-  anticipate_per_pair(world.state(), candidates, world.materials(), Walls{}, Vec3::Zero(), settings, 5, finer);
+  anticipate_per_pair(world.state(), candidates, world.materials(), world.walls(), Vec3::Zero(), settings, 5, finer);
   EXPECT_EQ(finer, std::vector<int>(n, 5));
 }
 
@@ -205,10 +212,11 @@ TEST(ParticleLevels, ASettlingPileOfBigAndLightSpheresStepsNoFinerThanOneLevelPe
 TEST(ParticleLevels, AMillBooksItsSpectraAndBalancesItsEnergyForAnyThreadCount) {
   const AllowThreads allow_three(3);
   Real start_energy = 0;
-  auto run = [&start_energy](int threads) {
+  auto run = [&start_energy](int threads, bool wall_lists = true) {
     const Scene scene = load_scene_text(mill_scene(8, 0.75, "count = 30"), "mill.toml", ".",
                                         {"integrator.control=\"doubling\"", "integrator.particle_levels=true",
-                                         "run.threads=" + std::to_string(threads)});
+                                         "run.threads=" + std::to_string(threads),
+                                         std::string("broadphase.wall_lists=") + (wall_lists ? "true" : "false")});
     auto world = std::make_unique<World>(scene.world);
     start_energy = world->energies().total();
     EXPECT_EQ(world->run_until(0.4), StepStatus::ok);
@@ -233,6 +241,8 @@ TEST(ParticleLevels, AMillBooksItsSpectraAndBalancesItsEnergyForAnyThreadCount) 
   const std::unique_ptr<World> three = run(3);
   ASSERT_EQ(three->thread_count(), 3);
   EXPECT_EQ(three->state_hash(), world->state_hash());
+  // The groups' wall lists only skip walls out of reach: every wall tested gives the same run.
+  EXPECT_EQ(run(1, false)->state_hash(), world->state_hash());
   const CollisionSpectra& other = *three->collision_spectra();
   for (auto kind : {CollisionSpectra::ball_ball, CollisionSpectra::ball_wall}) {
     EXPECT_EQ(other.events(kind), spectra.events(kind));
