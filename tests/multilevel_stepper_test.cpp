@@ -6,8 +6,10 @@
 //  3. A coarse particle held only by a finer one (a heavy ball on a light one on a floor) converges
 //     at second order to the all-fine reference as every step halves.
 //  4. Angular momentum about a fixed point across levels: its error shrinks as the steps halve.
-// Expected values come from conservation laws and from runs of the same physics at one level (the
-// World's fixed step, or this stepper at a converged step); none is copied from this stepper's output.
+//  5. A group reset after stepping another one steps bit for bit as a group made fresh.
+// Expected values come from conservation laws, from runs of the same physics at one level (the
+// World's fixed step, or this stepper at a converged step) and from a fresh group; none is copied from
+// this stepper's output.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -189,6 +191,49 @@ WorldConfig heavy_on_light(Real dt, Real damping) {
                  particle(Vec3(0, 0, z_big), Vec3::Zero(), big_r, big_m)};
   c.walls = {plane(Vec3::Zero(), Vec3(0, 0, 1))};
   return c;
+}
+
+// A scratch group reset to another group (fewer particles, other levels, a wall, other contact
+// laws) after it stepped a first one advances exactly as a group made fresh from the same state and
+// contacts: nothing of the first survives the reset.
+TEST(MultilevelStepper, AResetGroupStepsExactlyAsAFreshOne) {
+  World first(three_in_a_row());
+  Walls first_walls = first.walls();
+  MultilevelGroup reused = group_of(first, first_walls, 1e-5, -2, {-2, -1, 0});
+  reused.advance(400);
+  ASSERT_GT(reused.pair_contacts().size(), 0u);
+
+  WorldConfig config = heavy_on_light(1e-4, 0.2);
+  config.contacts[0].sliding_friction = 0.5;      // springs that remember
+  config.particles[1].velocity = Vec3(0.02, 0, 0);  // and slip to wind them
+  World second(config);
+  Walls source_walls = second.walls();
+  MultilevelPhysics physics = physics_of(second, 1e-4, -3);
+  physics.wall_margin = 1e-3;  // through wall lists
+  MultilevelGroup source(second.state(), all_pairs(2), source_walls, physics, second.time(), {-3, 0});
+  source.advance(64);  // contacts with history and forces, levels -3 and 0
+  const std::vector<int> levels{-3, -2};
+  Walls fresh_walls = second.walls(), reused_walls = second.walls();
+  MultilevelGroup fresh(source.state(), all_pairs(2), fresh_walls, physics, source.time(), levels,
+                        source.pair_contacts(), source.wall_contacts());
+  reused.reset(source.state(), all_pairs(2), reused_walls, physics, source.time(), levels, source.pair_contacts(),
+               source.wall_contacts());
+  for (int r = 0; r < 20; ++r) {
+    fresh.advance(32);
+    reused.advance(32);
+  }
+  ASSERT_EQ(fresh.wall_contacts().size(), 1u);
+  ASSERT_EQ(fresh.pair_contacts().size(), 1u);
+  for (std::size_t q = 0; q < 2; ++q) {
+    EXPECT_EQ(reused.state().position[q], fresh.state().position[q]);
+    EXPECT_EQ(reused.state().velocity[q], fresh.state().velocity[q]);
+  }
+  EXPECT_EQ(reused.pair_contacts().force, fresh.pair_contacts().force);
+  EXPECT_EQ(reused.wall_contacts().force, fresh.wall_contacts().force);
+  EXPECT_EQ(reused.particle_steps(), fresh.particle_steps());
+  EXPECT_EQ(reused.ended_dissipation(), fresh.ended_dissipation());
+  EXPECT_EQ(reused.prediction_miss(), fresh.prediction_miss());
+  EXPECT_EQ(reused.excursion(), fresh.excursion());
 }
 
 /// The heavy ball's height after `duration` [s] with the light one at level -3 and the heavy one at
