@@ -152,8 +152,8 @@ class MultilevelGroup {
   broadphase::CandidatePairs candidates_;
   Walls* walls_ = nullptr;
   Real time_ = 0;
-  Real time0_ = 0;  // at construction [s]
-  std::int64_t tick_origin_ = 0;  // ticks since construction at the start of the current advance
+  Real time0_ = 0;  // at construction or reset [s]
+  std::int64_t tick_origin_ = 0;  // ticks since construction or reset at the start of the current advance
   std::vector<int> level_;
   bool rotation_ = false;
   ContactParts parts_;
