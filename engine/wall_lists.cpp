@@ -1,6 +1,7 @@
 #include "engine/wall_lists.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 #include "engine/parallel.h"
@@ -15,12 +16,23 @@ void WallLists::build(const State& s, const Walls& walls, Real margin) {
   const auto listed = [&](std::size_t p, std::size_t w) {
     return s.inv_mass[p] > 0 && walls.may_touch(w, s.position[p], s.radius[p], margin);
   };
-  // Counts go to start_[p + 1], then an inclusive scan in place turns them into row starts.
+  // Counts go to start_[p + 1], then an inclusive scan in place turns them into row starts. Up to 64
+  // walls, each particle's listed walls are kept as a bit mask by the counting pass, so every wall is
+  // tested once; with more, the filling pass tests them again.
+  const std::size_t wall_count = walls.count();
+  const bool masks = wall_count <= 64;
+  std::vector<std::uint64_t> mask(masks ? n : 0);
   start_.assign(n + 1, 0);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t c = 0;
-    for (std::size_t w = 0; w < walls.count(); ++w) c += listed(p, w) ? 1 : 0;
+    std::uint64_t m = 0;
+    for (std::size_t w = 0; w < wall_count; ++w)
+      if (listed(p, w)) {
+        ++c;
+        if (masks) m |= std::uint64_t{1} << w;
+      }
     start_[p + 1] = c;
+    if (masks) mask[p] = m;
   });
   listed_.clear();
   for (std::size_t p = 0; p < n; ++p) {
@@ -30,7 +42,11 @@ void WallLists::build(const State& s, const Walls& walls, Real margin) {
   wall_.resize(start_[n]);
   parallel_for(n, [&](std::size_t p) {
     std::uint32_t k = start_[p];
-    for (std::size_t w = 0; w < walls.count(); ++w)
+    if (masks) {
+      for (std::uint64_t m = mask[p]; m != 0; m &= m - 1) wall_[k++] = static_cast<std::uint16_t>(std::countr_zero(m));
+      return;
+    }
+    for (std::size_t w = 0; w < wall_count; ++w)
       if (listed(p, w)) wall_[k++] = static_cast<std::uint16_t>(w);
   });
   reference_.resize(n);

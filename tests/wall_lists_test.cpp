@@ -1,7 +1,8 @@
 // The wall broadphase (wall_lists.h): while the lists report themselves valid, no wall left out of a
 // particle's list touches it, for prisms that turn about an off-axis centre, translate and ramp up,
-// and planes, boxes and cylinders at rest or translating; a mill and a box of particles run to the
-// same state with the lists as without them.
+// and planes, boxes and cylinders at rest or translating; a list holds exactly the walls within the
+// margin, for up to 64 walls and for more; a mill and a box of particles run to the same state with
+// the lists as without them.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -137,6 +138,40 @@ TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
   EXPECT_LT(valid_trials, 190) << "some trials move beyond the margin: valid() must say so";
   EXPECT_GT(touches_checked, 2000);
   EXPECT_GT(filtered_out, 200 * n) << "most particles are far from most bars: the lists leave those out";
+}
+
+// A particle's list holds exactly the walls Walls::may_touch accepts within the margin, ascending,
+// whether the walls fit the builder's bit masks (up to 64) or not: a ring of 60 bars, then 70.
+TEST(WallLists, EachListHoldsExactlyTheWallsWithinTheMarginForAnyNumberOfWalls) {
+  for (const std::size_t count : {std::size_t{60}, std::size_t{70}}) {
+    std::vector<WallConfig> config;
+    for (std::size_t w = 0; w < count; ++w) {
+      const Real angle = 2 * std::acos(-1.0) * static_cast<Real>(w) / static_cast<Real>(count);
+      config.push_back(bar(0.1 * Vec3(std::cos(angle), std::sin(angle), 0), 0.004, 0.003, 0.05));
+    }
+    const Walls walls(config, one_material());
+    std::mt19937_64 rng(count);
+    std::uniform_real_distribution<Real> u(-1, 1);
+    State s;
+    for (int p = 0; p < 3000; ++p)
+      s.add(Vec3(0.11 * u(rng), 0.11 * u(rng), 0.02 * u(rng)), Vec3::Zero(), Vec3::Zero(), 0.004, 1, 1, 0);
+    const Real margin = 0.004;
+    WallLists lists;
+    lists.build(s, walls, margin);
+    std::size_t entries = 0, most = 0;
+    for (std::size_t p = 0; p < s.size(); ++p) {
+      std::vector<std::uint16_t> expected;
+      for (std::size_t w = 0; w < count; ++w)
+        if (walls.may_touch(w, s.position[p], s.radius[p], margin)) expected.push_back(static_cast<std::uint16_t>(w));
+      std::vector<std::uint16_t> got;
+      for (std::uint32_t k = lists.row_start(p); k < lists.row_start(p + 1); ++k) got.push_back(lists.wall(k));
+      ASSERT_EQ(got, expected) << count << " walls, particle " << p;
+      entries += got.size();
+      most = std::max(most, got.size());
+    }
+    EXPECT_GT(entries, 100u) << count << " walls: particles near the ring list some bars";
+    EXPECT_GE(most, 2u) << count << " walls: some particle lists neighbouring bars";
+  }
 }
 
 TEST(WallLists, ValidityFollowsTheMarginLessTheWallsTravel) {
