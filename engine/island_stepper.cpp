@@ -154,34 +154,43 @@ void DoublingCounters::add(const DoublingCounters& o) {
   for (std::size_t k = 0; k < o.histogram.size(); ++k) histogram[k] += o.histogram[k];
 }
 
+namespace {
+
+Vec3 acceleration_of(const State& s, std::size_t q, const Vec3& gravity) {
+  return s.inv_mass[q] == 0 ? Vec3(Vec3::Zero()) : Vec3(s.inv_mass[q] * s.force[q] + gravity);
+}
+
+}  // namespace
+
+bool pair_may_close(const State& s, std::size_t a, std::size_t b, const Vec3& gravity, Real h) {
+  if (s.inv_mass[a] == 0 && s.inv_mass[b] == 0) return false;
+  const Real gap = (s.position[a] - s.position[b]).norm() - s.radius[a] - s.radius[b];
+  if (gap <= 0) return false;  // in contact: the error control's business
+  const Real closing = (s.velocity[a] - s.velocity[b]).norm() * h +
+                       0.5 * (acceleration_of(s, a, gravity) - acceleration_of(s, b, gravity)).norm() * h * h;
+  return 2 * closing > gap;
+}
+
+bool wall_may_close(const State& s, std::size_t a, const Walls& walls, std::size_t w, const Vec3& gravity, Real h) {
+  if (s.inv_mass[a] == 0) return false;
+  const Real closing = (s.velocity[a] - walls.velocity_at(w, s.position[a])).norm() * h +
+                       0.5 * acceleration_of(s, a, gravity).norm() * h * h;
+  // A wall feature within twice the closing distance that is not touched yet (the features touched
+  // at a radius are touched at any larger one, so a larger count means a new one).
+  return walls.touching_count(w, s.position[a], s.radius[a] + 2 * closing) >
+         walls.touching_count(w, s.position[a], s.radius[a]);
+}
+
 int anticipation_level(const IslandState& island, const broadphase::CandidatePairs& candidates, const Walls& walls,
                        const Vec3& gravity, Real dt_base, int level, int contact_level) {
   const State& s = island.state;
-  auto acceleration = [&](std::size_t q) -> Vec3 {
-    return s.inv_mass[q] == 0 ? Vec3(Vec3::Zero()) : Vec3(s.inv_mass[q] * s.force[q] + gravity);
-  };
   auto clear_at = [&](int l) {
     const Real h = std::ldexp(dt_base, l);
     for (std::size_t a = 0; a < s.size(); ++a) {
-      for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
-        const std::size_t b = candidates.partner[k];
-        if (s.inv_mass[a] == 0 && s.inv_mass[b] == 0) continue;
-        const Real gap = (s.position[a] - s.position[b]).norm() - s.radius[a] - s.radius[b];
-        if (gap <= 0) continue;  // in contact: the error control's business
-        const Real closing = (s.velocity[a] - s.velocity[b]).norm() * h +
-                             0.5 * (acceleration(a) - acceleration(b)).norm() * h * h;
-        if (2 * closing > gap) return false;
-      }
-      if (s.inv_mass[a] == 0) continue;
-      for (std::size_t w = 0; w < walls.count(); ++w) {
-        const Real closing = (s.velocity[a] - walls.velocity_at(w, s.position[a])).norm() * h +
-                             0.5 * acceleration(a).norm() * h * h;
-        // A wall feature within twice the closing distance that is not touched yet (the features
-        // touched at a radius are touched at any larger one, so a larger count means a new one).
-        if (walls.touching_count(w, s.position[a], s.radius[a] + 2 * closing) >
-            walls.touching_count(w, s.position[a], s.radius[a]))
-          return false;
-      }
+      for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k)
+        if (pair_may_close(s, a, candidates.partner[k], gravity, h)) return false;
+      for (std::size_t w = 0; w < walls.count(); ++w)
+        if (wall_may_close(s, a, walls, w, gravity, h)) return false;
     }
     return true;
   };

@@ -99,6 +99,14 @@ int advance_island(IslandState& island, const broadphase::CandidatePairs& candid
                    const DoublingSettings& settings, IslandScratch& scratch, Real t0, std::int64_t begin,
                    std::int64_t end, int level, DoublingCounters& counters);
 
+/// True when particles a and b of `s` are apart and may close more than half their gap within h
+/// (|v_a - v_b| h + |a_a - a_b| h^2 / 2 > gap / 2, accelerations from the forces and gravity); never
+/// for two immovable particles.
+bool pair_may_close(const State& s, std::size_t a, std::size_t b, const Vec3& gravity, Real h);
+/// True when movable particle a of `s` may reach within h (the same closing distance, against the
+/// wall's velocity there) a feature of wall w that it does not touch now. Walls at the state's time.
+bool wall_may_close(const State& s, std::size_t a, const Walls& walls, std::size_t w, const Vec3& gravity, Real h);
+
 /// Largest level whose step keeps every approaching pair and wall of the island at least two steps
 /// away from touching (|v_rel| h + |a_rel| h^2 / 2 <= gap / 2), or `contact_level`, whichever is
 /// larger; never above `level`. Walls must be at the island's time.

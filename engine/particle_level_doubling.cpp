@@ -59,18 +59,9 @@ void stability_levels(const IslandState& island, const MaterialTable& materials,
   for (std::size_t q = 0; q < s.size(); ++q) {
     level[q] = settings.level_max;
     if (s.inv_mass[q] == 0 || stiffness[q] <= 0) continue;
-    const Real step = std::sqrt(1 / (s.inv_mass[q] * stiffness[q]));
-    const Real steps = std::floor(std::log2(step / settings.dt_base));
-    level[q] = static_cast<int>(std::clamp(steps, Real(settings.level_min), Real(settings.level_max)));
+    level[q] = level_of_step(std::sqrt(1 / (s.inv_mass[q] * stiffness[q])), settings.dt_base, settings.level_min,
+                             settings.level_max);
   }
-}
-
-/// The level whose step is t_c / 8 of a contact of stiffness k between masses of inverse sum inv_m.
-int contact_resolving_level(Real k, Real inv_m, const DoublingSettings& settings) {
-  if (!(k > 0) || !(inv_m > 0)) return settings.level_max;
-  const Real step = std::acos(-1.0) / std::sqrt(k * inv_m) / 8;
-  return static_cast<int>(std::clamp(std::floor(std::log2(step / settings.dt_base)), Real(settings.level_min),
-                                     Real(settings.level_max)));
 }
 
 }  // namespace
@@ -79,34 +70,21 @@ void anticipate_per_pair(const State& s, const broadphase::CandidatePairs& candi
                          const Walls& walls, const Vec3& gravity, const DoublingSettings& settings, int chunk_level,
                          std::vector<int>& levels) {
   const Real h = std::ldexp(settings.dt_base, chunk_level);
-  const auto acceleration = [&](std::size_t q) -> Vec3 {
-    return s.inv_mass[q] == 0 ? Vec3(Vec3::Zero()) : Vec3(s.inv_mass[q] * s.force[q] + gravity);
+  const auto resolving = [&](std::uint16_t pair_class, Real inv_m) {
+    return contact_resolving_level(materials.params(pair_class).k_n, inv_m, settings.dt_base, settings.level_min,
+                                   settings.level_max);
   };
   for (std::size_t a = 0; a < s.size(); ++a) {
     for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
       const std::size_t b = candidates.partner[k];
-      const Real inv_m = s.inv_mass[a] + s.inv_mass[b];
-      if (inv_m == 0) continue;
-      const Real gap = (s.position[a] - s.position[b]).norm() - s.radius[a] - s.radius[b];
-      if (gap <= 0) continue;  // in contact: the error control's business
-      const Real closing = (s.velocity[a] - s.velocity[b]).norm() * h +
-                           0.5 * (acceleration(a) - acceleration(b)).norm() * h * h;
-      if (2 * closing <= gap) continue;
-      const Real k_n = materials.params(materials.pair_class(s.material[a], s.material[b])).k_n;
-      const int resolving = contact_resolving_level(k_n, inv_m, settings);
-      levels[a] = std::min(levels[a], resolving);
-      levels[b] = std::min(levels[b], resolving);
+      if (!pair_may_close(s, a, b, gravity, h)) continue;
+      const int level = resolving(materials.pair_class(s.material[a], s.material[b]), s.inv_mass[a] + s.inv_mass[b]);
+      levels[a] = std::min(levels[a], level);
+      levels[b] = std::min(levels[b], level);
     }
-    if (s.inv_mass[a] == 0) continue;
     for (std::size_t w = 0; w < walls.count(); ++w) {
-      const Real closing = (s.velocity[a] - walls.velocity_at(w, s.position[a])).norm() * h +
-                           0.5 * acceleration(a).norm() * h * h;
-      // A wall feature within twice the closing distance that is not touched yet.
-      if (walls.touching_count(w, s.position[a], s.radius[a] + 2 * closing) <=
-          walls.touching_count(w, s.position[a], s.radius[a]))
-        continue;
-      const Real k_n = materials.params(materials.pair_class(s.material[a], walls.material(w))).k_n;
-      levels[a] = std::min(levels[a], contact_resolving_level(k_n, s.inv_mass[a], settings));
+      if (!wall_may_close(s, a, walls, w, gravity, h)) continue;
+      levels[a] = std::min(levels[a], resolving(materials.pair_class(s.material[a], walls.material(w)), s.inv_mass[a]));
     }
   }
 }

@@ -3,6 +3,8 @@
 // [level_min, level_max]; sync intervals last T = dt_base * 2^level_max. Time is the count of
 // completed sync intervals plus an integer tick of the finest step inside the current one, never an
 // accumulated float. Under the fixed control every particle is at level 0 and T = dt.
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 #include "engine/config.h"
@@ -11,6 +13,18 @@ namespace dem {
 
 /// Finest steps (ticks) in one step of `level`.
 inline std::int64_t ticks_of_level(int level, int level_min) { return std::int64_t{1} << (level - level_min); }
+
+/// The highest level in [level_min, level_max] whose step dt_base 2^level is at most `step` [s]
+/// (level_min when none is).
+inline int level_of_step(Real step, Real dt_base, int level_min, int level_max) {
+  return static_cast<int>(std::clamp(std::floor(std::log2(step / dt_base)), Real(level_min), Real(level_max)));
+}
+
+/// The level that resolves a contact of normal stiffness k between particles whose inverse masses sum
+/// to inv_m: a step of t_c / 8, t_c = pi / sqrt(k inv_m).
+inline int contact_resolving_level(Real k, Real inv_m, Real dt_base, int level_min, int level_max) {
+  return level_of_step(std::acos(-1.0) / std::sqrt(k * inv_m) / 8, dt_base, level_min, level_max);
+}
 
 /// `level` lowered (not below level_min) until its step starts at `tick` on its own grid and ends by `end`.
 inline int aligned_level(int level, int level_min, std::int64_t tick, std::int64_t end) {

@@ -86,11 +86,8 @@ void World::init_doubling() {
     r_max = std::max(r_max, state_.radius[p]);
   }
   d.contact_level = c.level_max;
-  if (k_max > 0 && inv_mass_max > 0) {
-    const Real contact_time = std::acos(-1.0) / std::sqrt(2 * k_max * inv_mass_max);
-    const Real steps = std::floor(std::log2(contact_time / (8 * scheduler_.dt_base())));
-    d.contact_level = static_cast<int>(std::clamp(steps, Real(c.level_min), Real(c.level_max)));
-  }
+  if (k_max > 0 && inv_mass_max > 0)
+    d.contact_level = contact_resolving_level(k_max, 2 * inv_mass_max, scheduler_.dt_base(), c.level_min, c.level_max);
   d.skin_cap = std::max(skin_, 2 * r_max);
   d.round_walls = walls_;
   d.next = state_;

@@ -18,6 +18,7 @@
 
 #include "engine/doubling_work.h"
 #include "engine/materials.h"
+#include "engine/scheduler.h"
 #include "engine/world.h"
 
 namespace dem {
@@ -179,11 +180,9 @@ ParticleId World::add_particle(const ParticleConfig& p) {
     // A lighter particle may need finer contact steps: init_doubling's rule for this mass.
     Real k_max = 0;
     for (const ContactConfig& contact : config_.contacts) k_max = std::max(k_max, contact.normal_stiffness);
-    if (k_max > 0 && inv_mass > 0) {
-      const Real contact_time = std::acos(-1.0) / std::sqrt(2 * k_max * inv_mass);
-      const Real steps = std::floor(std::log2(contact_time / (8 * scheduler_.dt_base())));
-      d.contact_level = std::min(d.contact_level, static_cast<int>(std::clamp(steps, Real(c.level_min), Real(c.level_max))));
-    }
+    if (k_max > 0 && inv_mass > 0)
+      d.contact_level = std::min(d.contact_level, contact_resolving_level(k_max, 2 * inv_mass, scheduler_.dt_base(),
+                                                                          c.level_min, c.level_max));
   }
   refresh_after_population_change();
   return state_.id[slot];
