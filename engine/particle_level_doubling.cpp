@@ -10,6 +10,12 @@
 namespace dem {
 namespace {
 
+/// A member's level is that of its full trial; the island keeps the half trial, one level finer. So a
+/// bound on the step a member is accepted at allows its full trial one level above it.
+int full_trial_level(int accepted_level, const DoublingSettings& settings) {
+  return std::min(accepted_level + 1, settings.level_max);
+}
+
 /// The island's state after an accepted trial, its contacts and books; `origin` holds the members'
 /// positions at the round's start, for their excursions.
 void take_trial(const MultilevelGroup& trial, bool book_events, const std::vector<Vec3>& origin, IslandState& island) {
@@ -37,10 +43,11 @@ void take_trial(const MultilevelGroup& trial, bool book_events, const std::vecto
   }
 }
 
-/// Per member, the highest level whose step keeps it stable on the springs it touches now: a step of
-/// at most sqrt(m / k), half velocity Verlet's limit 2 / omega, for its mass m on the sum k of its
-/// contacts' normal stiffnesses (partners held fixed: a coarse member moves under finer ones as if
-/// they were). level_max without contacts; immovable members are not capped (they take the chunk's level).
+/// Per member, the highest full-trial level whose accepted step keeps it stable on the springs it
+/// touches now: an accepted step of at most sqrt(m / k), half velocity Verlet's limit 2 / omega, for
+/// its mass m on the sum k of its contacts' normal stiffnesses (partners held fixed: a coarse member
+/// moves under finer ones as if they were), so the full trial stays within the limit itself.
+/// level_max without contacts; immovable members are not capped (they take the chunk's level).
 void stability_levels(const IslandState& island, const MaterialTable& materials, const Walls& walls,
                       const DoublingSettings& settings, std::vector<int>& level) {
   const State& s = island.state;
@@ -59,8 +66,9 @@ void stability_levels(const IslandState& island, const MaterialTable& materials,
   for (std::size_t q = 0; q < s.size(); ++q) {
     level[q] = settings.level_max;
     if (s.inv_mass[q] == 0 || stiffness[q] <= 0) continue;
-    level[q] = level_of_step(std::sqrt(1 / (s.inv_mass[q] * stiffness[q])), settings.dt_base, settings.level_min,
-                             settings.level_max);
+    level[q] = full_trial_level(level_of_step(std::sqrt(1 / (s.inv_mass[q] * stiffness[q])), settings.dt_base,
+                                              settings.level_min, settings.level_max),
+                                settings);
   }
 }
 
@@ -71,8 +79,9 @@ void anticipate_per_pair(const State& s, const broadphase::CandidatePairs& candi
                          std::vector<int>& levels) {
   const Real h = std::ldexp(settings.dt_base, chunk_level);
   const auto resolving = [&](std::uint16_t pair_class, Real inv_m) {
-    return contact_resolving_level(materials.params(pair_class).k_n, inv_m, settings.dt_base, settings.level_min,
-                                   settings.level_max);
+    return full_trial_level(contact_resolving_level(materials.params(pair_class).k_n, inv_m, settings.dt_base,
+                                                    settings.level_min, settings.level_max),
+                            settings);
   };
   for (std::size_t a = 0; a < s.size(); ++a) {
     for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
@@ -139,11 +148,11 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
     for (int& l : levels) l = aligned_level(std::clamp(l, level_min, settings.level_max), level_min, tick, end);
     int highest = coarsest();
     const Real t = t0 + static_cast<Real>(tick) * finest;
-    // No member of an approaching pair above the level that resolves its contact (never below
-    // contact_level, which resolves the stiffest, lightest pair: nothing to cap at or under it), and
-    // none above the level that keeps it stable on the springs it touches.
+    // No member of an approaching pair accepted above the level that resolves its contact (never below
+    // contact_level, which resolves the stiffest, lightest pair: nothing to cap at or under its full
+    // trial), and none above the level that keeps it stable on the springs it touches.
     walls.set_time(t);
-    if (highest > settings.contact_level)
+    if (highest > full_trial_level(settings.contact_level, settings))
       anticipate_per_pair(island.state, candidates, *physics.materials, walls, physics.gravity, settings, highest,
                           levels);
     stability_levels(island, *physics.materials, walls, settings, stability);

@@ -18,8 +18,9 @@ namespace dem {
 /// Collision anticipation with a level per particle (docs/physics.md 6.10): a candidate pair that is
 /// apart and could close more than half its gap within a step of `chunk_level` (|v_rel| H + |a_rel|
 /// H^2 / 2 > gap / 2, accelerations from the state's forces and `gravity`) caps both particles'
-/// `levels` at the level whose step is t_c / 8 of that contact (its own m* and normal stiffness);
-/// likewise a particle and a wall feature it may reach (m* = m). Walls must be at the chunk's time.
+/// `levels` (full-trial levels) so that the step they are accepted at, one level finer, is at most
+/// t_c / 8 of that contact (its own m* and normal stiffness); likewise a particle and a wall feature it
+/// may reach (m* = m). Walls must be at the chunk's time.
 void anticipate_per_pair(const State& state, const broadphase::CandidatePairs& candidates,
                          const MaterialTable& materials, const Walls& walls, const Vec3& gravity,
                          const DoublingSettings& settings, int chunk_level, std::vector<int>& levels);

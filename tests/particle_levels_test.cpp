@@ -8,7 +8,7 @@
 //     the drive work balances dissipation and energy change, and 1 and 3 threads give the same state
 //     and spectra.
 //  4. Collision anticipation per pair caps an approaching pair at its own contact's level and no other
-//     particle.
+//     particle; a ball resting on a floor steps within its contact's stability bound.
 //  5. A pile of big and light spheres settling in a box: levels per particle take no more steps than
 //     one level per island, and no particle is pushed down to level_min.
 // Expected values come from conservation laws, from fixed-step runs of the same scene and from the
@@ -137,8 +137,9 @@ TEST(ParticleLevels, AHeavyBallOnLightOnesStepsCoarserThanThey) {
   EXPECT_LT(dz, 1e-6);  // a quarter of a thousandth of the radius of the fines
 }
 
-// Anticipation per pair: two 100 g balls closing on each other within the chunk are capped at the
-// level that resolves their contact (t_c / 8 with their m* = 50 g), a ball closing on a wall at that of
+// Anticipation per pair: two 100 g balls closing on each other within the chunk are capped so that
+// the step they are accepted at (the half trial, one level below the full trial's level they carry)
+// resolves their contact (t_c / 8 with their m* = 50 g), a ball closing on a wall so that it resolves
 // its wall contact (m* = m); two 0.2 g balls nearly touching but not closing, and one far away, keep
 // their levels (one cap for the whole island would hold them all at the approaching pair's level, or
 // at the light pair's).
@@ -170,18 +171,55 @@ TEST(ParticleLevels, AnApproachingPairIsCappedAtItsOwnContactsLevelAndNoOtherPar
   std::vector<int> levels(n, chunk_level);
   anticipate_per_pair(world.state(), candidates, world.materials(), world.walls(), Vec3::Zero(), settings,
                       chunk_level, levels);
-  // t_c / 8 = pi sqrt(m* / k) / 8: 8.8e-5 s for the heavy pair (level 3, 8e-5 s); 2.5e-4 s for the 0.4 kg
-  // ball against the wall, m* = m (level 4).
+  // t_c / 8 = pi sqrt(m* / k) / 8: 8.8e-5 s for the heavy pair (accepted at level 3, 8e-5 s, so the full
+  // trial at 4); 2.5e-4 s for the 0.4 kg ball against the wall, m* = m (accepted at 4, full trial at 5).
   const auto resolving = [](Real m_star) {
     return static_cast<int>(std::floor(std::log2(std::acos(-1.0) * std::sqrt(m_star / 1e6) / 8 / 1e-5)));
   };
   ASSERT_EQ(resolving(0.05), 3);
   ASSERT_EQ(resolving(0.4), 4);
-  EXPECT_EQ(levels, (std::vector<int>{3, 3, chunk_level, chunk_level, chunk_level, 4}));
-  // At a chunk of level 5 both close 0.32 mm of their 1 mm gaps: more than two steps away, no cap.
+  EXPECT_EQ(levels, (std::vector<int>{4, 4, chunk_level, chunk_level, chunk_level, 5}));
+  // At a chunk of level 5 both close 0.32 mm of their 1 mm gaps: more than two steps away, no cap
+  // (it would lower the heavy pair to 4).
   std::vector<int> finer(n, 5);
   anticipate_per_pair(world.state(), candidates, world.materials(), world.walls(), Vec3::Zero(), settings, 5, finer);
   EXPECT_EQ(finer, std::vector<int>(n, 5));
+}
+
+// Stability per member: a 100 g ball resting on a floor of stiffness 1e4 N/m, nudged at 1 mm/s, at a
+// loose tolerance. Near rest both trials agree at almost any step, so the error control alone would take
+// the longest step there is (10.24 ms, beyond velocity Verlet's limit 2 sqrt(m / k) = 6.3 ms); the cap
+// keeps the step it is accepted at within sqrt(m / k) = 3.16 ms (level 8, 2.56 ms), its full trial at
+// level 9, and the nudge dies out.
+TEST(ParticleLevels, ABallRestingOnAFloorStepsWithinItsContactsStabilityBound) {
+  WorldConfig c = base_config(1e-5);
+  c.model.gravity = Vec3(0, 0, -9.81);
+  ContactConfig contact;
+  contact.normal_stiffness = 1e4;
+  contact.normal_damping = {DampingKind::damping_ratio, 0.3};
+  c.contacts = {contact};
+  c.walls = {plane(Vec3::Zero(), Vec3(0, 0, 1))};
+  const Real radius = 0.02, mass = 0.1, rest_overlap = mass * 9.81 / 1e4;
+  c.particles = {particle(Vec3(0, 0, radius - rest_overlap), Vec3(0, 0, -1e-3), radius, mass)};
+  set_doubling(c, 1e-5, -6, 10, 1);
+  c.integrator.particle_levels = true;
+  World world(c);
+  const int accepted_cap = static_cast<int>(std::floor(std::log2(std::sqrt(mass / 1e4) / 1e-5)));
+  ASSERT_EQ(accepted_cap, 8);
+  for (int s = 0; s < 20; ++s) {
+    ASSERT_EQ(world.advance_sync_interval(), StepStatus::ok);
+    ASSERT_EQ(world.wall_contacts().size(), 1u);
+  }
+  // The histogram counts accepted steps per level from level_min = -6.
+  const std::vector<std::uint64_t>& histogram = world.counters().level_histogram;
+  int highest = -100;
+  for (std::size_t l = 0; l < histogram.size(); ++l)
+    if (histogram[l] > 0) highest = static_cast<int>(l) - 6;
+  const Real drift = std::abs(world.state().position[0].z() - (radius - rest_overlap));
+  std::printf("ball on a floor: highest accepted level %d (cap %d), drift from rest %.3e m\n", highest,
+              accepted_cap, drift);
+  EXPECT_EQ(highest, accepted_cap);
+  EXPECT_LT(drift, 1e-3 * rest_overlap);
 }
 
 // 27 spheres of 4-5 mm, every third replaced by a light one of 1.5 mm, falling into a box and settling
