@@ -111,6 +111,7 @@ void MillOutputs::write_spectra(const World& world) const {
     for (int c = 0; c < spectra->class_count(); ++c)
       std::printf(" %s %.4g", spectra->class_name(c).c_str(), spectra->dissipation_share(c));
     std::printf("\n");
+    std::fflush(stdout);  // before the plot script's own lines
   }
   run_plot_script("dem run", "plot_spectra.py", out_ / "spectra.csv", quiet_);
 }
