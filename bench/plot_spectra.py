@@ -63,7 +63,8 @@ def main(path):
         ax.set_yscale("log")
         ax.set_xlabel(q.replace("_", " ") + " per event [J]")
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize="small")
+        if ax.get_lines():
+            ax.legend(fontsize="small")
     axes[0].set_ylabel("events per second per bin")
     title = "Collision energy spectra (" + path + ")"
     if labels:
