@@ -67,7 +67,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 10;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra
+constexpr std::uint32_t checkpoint_version = 11;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra; 11: spectra per kind of size classes
 
 class ByteWriter {
  public:
@@ -182,9 +182,16 @@ std::string World::checkpoint_bytes(std::uint64_t scene_hash) const {
   const auto reference = skin_tracker_.reference();
   w.put(std::vector<Vec3>(reference.begin(), reference.end()));
   w.put(exact_work_.history);  // the exact stepper's wall-contact springs and modes
-  std::vector<CollisionSpectra> spectra;  // empty, or the one being booked
-  if (spectra_) spectra.push_back(*spectra_);
-  w.put(spectra);
+  // Spectra: a flag, then (when booked) their kind count, bin counts and energies, events per kind and total.
+  w.put(static_cast<std::uint8_t>(spectra_ ? 1 : 0));
+  if (spectra_) {
+    const CollisionSpectra::Books books = spectra_->books();
+    w.put(static_cast<std::uint32_t>(spectra_->kind_count()));
+    w.put(books.count);
+    w.put(books.energy);
+    w.put(books.events);
+    w.put(books.dissipated);
+  }
   return w.finish();
 }
 
@@ -232,9 +239,18 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   r.get(reference);
   std::vector<ExactHistoryRecord> exact_history;
   r.get(exact_history);
-  std::vector<CollisionSpectra> spectra;
-  r.get(spectra);
-  if (spectra.size() != (spectra_ ? 1u : 0u)) r.fail("collision spectra do not match the scene's");
+  const bool has_spectra = r.get<std::uint8_t>() != 0;
+  if (has_spectra != (spectra_ != nullptr)) r.fail("collision spectra do not match the scene's");
+  CollisionSpectra::Books spectra_books;
+  if (has_spectra) {
+    if (r.get<std::uint32_t>() != static_cast<std::uint32_t>(spectra_->kind_count()))
+      r.fail("collision spectra have other size classes than the scene's");
+    r.get(spectra_books.count);
+    r.get(spectra_books.energy);
+    r.get(spectra_books.events);
+    spectra_books.dissipated = r.get<double>();
+    if (!CollisionSpectra(spectra_->edges()).set_books(spectra_books)) r.fail("damaged collision spectra");
+  }
   if (!r.done()) r.fail("unexpected bytes after the last field");
   if (state.size() != state_.size()) r.fail("particle count differs from the scene's");
   bool same_counts = true;
@@ -257,7 +273,10 @@ void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
   candidates_ = std::move(candidates);
   skin_tracker_.reset(reference);
   exact_work_.history = std::move(exact_history);
-  if (spectra_) *spectra_ = spectra[0];
+  if (spectra_) {
+    spectra_->set_books(spectra_books);
+    for (std::size_t p = 0; p < state_.size(); ++p) spectra_->classify(state_.id[p], state_.radius[p]);
+  }
   walls_.set_time(time());
   pairs_.index_rows(state_.size());
   build_pair_adjacency(state_.size(), pairs_, adjacency_);

@@ -20,12 +20,50 @@ void for_each_ended(const std::vector<std::uint64_t>& before, const std::vector<
 /// Impact energy, normal and tangential (rolling included) loss of one ended contact [J]. As in the
 /// World's books: dissipated = work - elastic, the normal work including the step on which the
 /// contact parted (contacts.cpp, release_work); the rest of the loss is tangential and rolling.
-ContactEvents::Event event_of(CollisionSpectra::Kind kind, const ContactHistory& history, Real work, Real elastic) {
+ContactEvents::Event event_of(std::uint64_t key, bool wall, const ContactHistory& history, Real work, Real elastic) {
   const double normal = history.normal_work - history.normal_elastic;
-  return {kind, {std::max(history.impact_energy, Real(0)), normal, (work - elastic) - normal}};
+  return {key, wall, {std::max(history.impact_energy, Real(0)), normal, (work - elastic) - normal}};
 }
 
 }  // namespace
+
+CollisionSpectra::CollisionSpectra(std::vector<double> edges) : edges_(std::move(edges)) {
+  if (class_count() > max_classes) edges_.resize(max_classes - 1);
+  histogram_.resize(static_cast<std::size_t>(kind_count()) * quantity_count);
+  events_.assign(static_cast<std::size_t>(kind_count()), 0);
+}
+
+int CollisionSpectra::class_of_radius(Real radius) const {
+  return static_cast<int>(std::upper_bound(edges_.begin(), edges_.end(), radius) - edges_.begin());
+}
+
+void CollisionSpectra::classify(ParticleId id, Real radius) {
+  if (edges_.empty()) return;  // one class: every id is class 0
+  if (id >= class_of_id_.size()) class_of_id_.resize(std::size_t{id} + 1, 0);
+  class_of_id_[id] = static_cast<std::uint8_t>(class_of_radius(radius));
+}
+
+CollisionSpectra::Kind CollisionSpectra::pair_kind(int a, int b) const {
+  if (a > b) std::swap(a, b);
+  // Kinds before row a: n + (n - 1) + ... + (n - a + 1).
+  return a * class_count() - a * (a - 1) / 2 + (b - a);
+}
+
+std::array<int, 2> CollisionSpectra::classes_of(Kind kind) const {
+  const int n = class_count();
+  const int pairs = n * (n + 1) / 2;
+  if (kind >= pairs) return {kind - pairs, -1};
+  for (int a = 0; a < n; ++a)
+    if (kind < pair_kind(a, n - 1) + 1) return {a, a + (kind - pair_kind(a, a))};
+  return {0, 0};
+}
+
+std::string CollisionSpectra::class_name(int c) const { return class_count() == 1 ? "ball" : "c" + std::to_string(c); }
+
+std::string CollisionSpectra::kind_name(Kind kind) const {
+  const std::array<int, 2> c = classes_of(kind);
+  return class_name(c[0]) + "-" + (c[1] < 0 ? std::string("liner") : class_name(c[1]));
+}
 
 int CollisionSpectra::bin_of(double energy) {
   if (!(energy > lowest_energy)) return 0;
@@ -35,64 +73,99 @@ int CollisionSpectra::bin_of(double energy) {
 
 double CollisionSpectra::bin_low(int b) { return lowest_energy * std::pow(10.0, static_cast<double>(b) / bins_per_decade); }
 
-void CollisionSpectra::record(Kind kind, const ContactHistory& history, Real work, Real elastic) {
-  const ContactEvents::Event e = event_of(kind, history, work, elastic);
-  record_event(e.kind, e.value);
+void CollisionSpectra::record_pair(std::uint64_t key, const ContactHistory& history, Real work, Real elastic) {
+  const ContactEvents::Event e = event_of(key, false, history, work, elastic);
+  record_event(kind_of_pair_key(key), e.value);
+}
+
+void CollisionSpectra::record_wall(std::uint64_t key, const ContactHistory& history, Real work, Real elastic) {
+  const ContactEvents::Event e = event_of(key, true, history, work, elastic);
+  record_event(kind_of_wall_key(key), e.value);
 }
 
 void CollisionSpectra::record(const ContactEvents& events) {
-  for (const ContactEvents::Event& e : events.events()) record_event(e.kind, e.value);
-}
-
-void CollisionSpectra::add(const CollisionSpectra& other) {
-  for (int kind = 0; kind < kind_count; ++kind) {
-    for (int q = 0; q < quantity_count; ++q)
-      for (int b = 0; b < bin_count; ++b) {
-        histogram_[kind][q].count[b] += other.histogram_[kind][q].count[b];
-        histogram_[kind][q].energy[b] += other.histogram_[kind][q].energy[b];
-      }
-    events_[kind] += other.events_[kind];
-  }
-  dissipated_ += other.dissipated_;
+  for (const ContactEvents::Event& e : events.events())
+    record_event(e.wall ? kind_of_wall_key(e.key) : kind_of_pair_key(e.key), e.value);
 }
 
 void CollisionSpectra::record_event(Kind kind, const double (&value)[quantity_count]) {
   for (int q = 0; q < quantity_count; ++q) {
-    Histogram& h = histogram_[kind][q];
+    Histogram& h = histogram_[static_cast<std::size_t>(kind) * quantity_count + q];
     const int b = bin_of(value[q]);
     ++h.count[b];
     h.energy[b] += value[q];
   }
-  ++events_[kind];
+  ++events_[static_cast<std::size_t>(kind)];
   dissipated_ += value[normal_dissipated] + value[tangential_dissipated];
 }
 
 void CollisionSpectra::record_ended(const PairContacts& before, const std::vector<std::uint64_t>& after_key) {
-  for_each_ended(before.key, after_key, [&](std::size_t k) { record(ball_ball, before.history(k), before.work[k], before.elastic[k]); });
+  for_each_ended(before.key, after_key,
+                 [&](std::size_t k) { record_pair(before.key[k], before.history(k), before.work[k], before.elastic[k]); });
 }
 
 void CollisionSpectra::record_ended(const WallContacts& before, const WallContacts& after) {
-  for_each_ended(before.key, after.key, [&](std::size_t k) { record(ball_wall, before.history[k], before.work[k], before.elastic[k]); });
+  for_each_ended(before.key, after.key,
+                 [&](std::size_t k) { record_wall(before.key[k], before.history[k], before.work[k], before.elastic[k]); });
 }
 
 void ContactEvents::record_ended(const PairContacts& before, const std::vector<std::uint64_t>& after_key) {
   for_each_ended(before.key, after_key, [&](std::size_t k) {
-    events_.push_back(event_of(CollisionSpectra::ball_ball, before.history(k), before.work[k], before.elastic[k]));
+    events_.push_back(event_of(before.key[k], false, before.history(k), before.work[k], before.elastic[k]));
   });
 }
 
 void ContactEvents::record_ended(const WallContacts& before, const WallContacts& after) {
   for_each_ended(before.key, after.key, [&](std::size_t k) {
-    events_.push_back(event_of(CollisionSpectra::ball_wall, before.history[k], before.work[k], before.elastic[k]));
+    events_.push_back(event_of(before.key[k], true, before.history[k], before.work[k], before.elastic[k]));
   });
+}
+
+void ContactEvents::record_pair(std::uint64_t key, const ContactHistory& history, Real work, Real elastic) {
+  events_.push_back(event_of(key, false, history, work, elastic));
 }
 
 double CollisionSpectra::dissipated() const { return dissipated_; }
 
 double CollisionSpectra::total(Kind kind, Quantity quantity) const {
   double sum = 0;
-  for (double e : histogram_[kind][quantity].energy) sum += e;
+  for (double e : histogram(kind, quantity).energy) sum += e;
   return sum;
+}
+
+double CollisionSpectra::dissipation_share(int c) const {
+  double own = 0, all = 0;
+  for (Kind kind = 0; kind < kind_count(); ++kind) {
+    const double d = dissipated(kind);
+    const std::array<int, 2> classes = classes_of(kind);
+    all += d;
+    if (classes[0] == c) own += classes[1] == c || classes[1] < 0 ? d : 0.5 * d;
+    else if (classes[1] == c) own += 0.5 * d;
+  }
+  return all != 0 ? own / all : 0;
+}
+
+CollisionSpectra::Books CollisionSpectra::books() const {
+  Books b;
+  for (const Histogram& h : histogram_) {
+    b.count.insert(b.count.end(), h.count.begin(), h.count.end());
+    b.energy.insert(b.energy.end(), h.energy.begin(), h.energy.end());
+  }
+  b.events = events_;
+  b.dissipated = dissipated_;
+  return b;
+}
+
+bool CollisionSpectra::set_books(const Books& b) {
+  const std::size_t cells = histogram_.size() * bin_count;
+  if (b.events.size() != events_.size() || b.count.size() != cells || b.energy.size() != cells) return false;
+  for (std::size_t h = 0; h < histogram_.size(); ++h) {
+    std::copy_n(b.count.begin() + static_cast<std::ptrdiff_t>(h * bin_count), bin_count, histogram_[h].count.begin());
+    std::copy_n(b.energy.begin() + static_cast<std::ptrdiff_t>(h * bin_count), bin_count, histogram_[h].energy.begin());
+  }
+  events_ = b.events;
+  dissipated_ = b.dissipated;
+  return true;
 }
 
 }  // namespace dem

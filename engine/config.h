@@ -163,6 +163,7 @@ struct WorldConfig {
   BroadphaseConfig broadphase;
   int threads = 0;  // 0: the cores in the process's affinity mask
   bool collision_spectra = false;  // book contact events for energy spectra (velocity Verlet, either control)
+  std::vector<double> spectra_size_classes;  // radius edges [m] of the spectra's size classes, ascending; empty: one class
 };
 
 }  // namespace dem

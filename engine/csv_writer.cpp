@@ -162,19 +162,20 @@ void write_spectra_csv(const std::filesystem::path& path, const CollisionSpectra
   using S = CollisionSpectra;
   std::string text = "kind,quantity,bin_low,bin_high,events,events_per_second,energy\n";
   char line[256];
-  for (int kind = 0; kind < S::kind_count; ++kind)
+  for (S::Kind k = 0; k < spectra.kind_count(); ++k) {
+    const std::string kind = spectra.kind_name(k);
     for (int q = 0; q < S::quantity_count; ++q)
       for (int b = 0; b < S::bin_count; ++b) {
-        const auto k = static_cast<S::Kind>(kind);
         const auto quantity = static_cast<S::Quantity>(q);
         const std::uint64_t count = spectra.count(k, quantity, b);
         if (count == 0) continue;
-        std::snprintf(line, sizeof line, "%s,%s,%.6g,%.6g,%llu,%.17g,%.17g\n", S::kind_names[kind],
+        std::snprintf(line, sizeof line, "%s,%s,%.6g,%.6g,%llu,%.17g,%.17g\n", kind.c_str(),
                       S::quantity_names[q], b == 0 ? 0.0 : S::bin_low(b),
                       b == S::bin_count - 1 ? INFINITY : S::bin_low(b + 1), static_cast<unsigned long long>(count),
                       duration > 0 ? static_cast<double>(count) / duration : 0.0, spectra.energy(k, quantity, b));
         text += line;
       }
+  }
   write_file_atomically(path, text);
 }
 

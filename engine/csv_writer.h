@@ -54,7 +54,7 @@ class SeriesWriter {
   int fd_ = -1;         // open O_APPEND while the object lives
 };
 
-/// The spectra's booked events as CSV: kind (ball-ball, ball-liner), quantity (impact_energy,
+/// The spectra's booked events as CSV: kind (ball-ball, ball-liner; with size classes c0-c1, c0-liner, ...), quantity (impact_energy,
 /// normal_dissipated, tangential_dissipated: rolling included), bin_low, bin_high [J], events,
 /// events_per_second (over `duration` [s]), energy [J] (the sum of the binned values); only bins with
 /// events. Written atomically.

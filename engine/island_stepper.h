@@ -36,10 +36,9 @@ struct IslandState {
   Real exact_dissipated = 0;    // by the exact stepper's flows [J]
   Worst exact_deepest;          // the deepest overlap inside the exact stepper's steps (step_watch.h)
   Real wall_work = 0;           // by moving walls on the island [J]
-  ContactEvents events;         // contacts that ended (IslandPhysics::book_events), for the World's spectra
-  // With a level per particle (particle_level_doubling.h): the accepted trial's ended contacts, booked
-  // (empty otherwise, so copying a trial stays cheap).
-  std::vector<CollisionSpectra> level_spectra;
+  // Contacts that ended (IslandPhysics::book_events), for the World's spectra; with a level per
+  // particle (particle_level_doubling.h), those of the accepted trials.
+  ContactEvents events;
   std::uint64_t unresolved = 0; // exact steps accepted with a contact still missed
   // The exact stepper's wall-contact springs and modes of the members (ExactWorkspace::history, keyed
   // by particle id, sorted), cut from the World's list with the island: each trial carries its own

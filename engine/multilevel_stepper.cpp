@@ -62,7 +62,7 @@ void MultilevelGroup::reset(const State& state, const broadphase::CandidatePairs
   tick_origin_ = 0;
   ended_dissipation_ = 0;
   wall_work_ = 0;
-  spectra_ = CollisionSpectra{};
+  events_.clear();
   particle_steps_ = 0;
   DEM_ASSERT(candidates_.row_count() == state_.size());
   rotation_ = physics_.kernels.uses_rotation;
@@ -231,7 +231,7 @@ void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
   if (nb.size() > 0 || !nb.left_start.empty()) {
     physics_.kernels.neighbour_forces(view_, *physics_.materials, nb, h, dashpot);
     ended_dissipation_ +=
-        finish_ended_contacts(view_, nb, rebuilt_from_[c], physics_.book_events ? &spectra_ : nullptr);
+        finish_ended_contacts(view_, nb, rebuilt_from_[c], physics_.book_events ? &events_ : nullptr);
   }
   if (members_[c].empty() || walls_->count() == 0) return;
   State& sub = member_state_[c];
@@ -249,7 +249,7 @@ void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
   }
   ended_dissipation_ +=
       update_wall_contacts(sub, *walls_, *physics_.materials, wall_contacts_[c], workspace_, wall_start_[c], lists);
-  if (physics_.book_events) spectra_.record_ended(workspace_.walls, wall_contacts_[c]);
+  if (physics_.book_events) events_.record_ended(workspace_.walls, wall_contacts_[c]);
   physics_.kernels.wall_forces(sub, *physics_.materials, *walls_, wall_contacts_[c], h, dashpot);
   // Work of moving walls, with the forces at the end of the step (a rectangle rule, as the fixed step's).
   if (physics_.walls_move) wall_work_ += h * wall_power(*walls_, wall_contacts_[c]);

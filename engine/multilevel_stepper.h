@@ -97,7 +97,7 @@ class MultilevelGroup {
   /// steps and where its booked forces took it [m]; 0 unless finer partners booked onto it.
   const std::vector<Real>& prediction_miss() const { return miss_; }
   /// Contacts that ended so far (physics.book_events).
-  const CollisionSpectra& spectra() const { return spectra_; }
+  const ContactEvents& events() const { return events_; }
   /// Particle-steps taken so far: each particle's steps, summed.
   std::uint64_t particle_steps() const { return particle_steps_; }
   /// Heap bytes held (memory_usage.h: by capacity).
@@ -190,7 +190,7 @@ class MultilevelGroup {
   std::vector<Real> excursion_;
   std::vector<Real> miss_;
   std::vector<Vec3> origin_;
-  CollisionSpectra spectra_;
+  ContactEvents events_;
   std::uint64_t particle_steps_ = 0;
 };
 

@@ -37,10 +37,7 @@ void take_trial(const MultilevelGroup& trial, bool book_events, const std::vecto
   for (std::size_t p = 0; p < s.size(); ++p) start[p + 1] += start[p];
   island.ended_dissipation += trial.ended_dissipation();
   island.wall_work += trial.wall_work();
-  if (book_events) {
-    if (island.level_spectra.empty()) island.level_spectra.emplace_back();
-    island.level_spectra.front().add(trial.spectra());
-  }
+  if (book_events) island.events.append(trial.events());
 }
 
 /// Per member, the highest full-trial level whose accepted step keeps it stable on the springs it
@@ -123,7 +120,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
   mp.wall_margin = physics.wall_margin;
   const std::vector<Vec3> origin = island.state.position;
   island.excursion.assign(n, 0);
-  island.level_spectra.clear();
+  island.events.clear();
   std::vector<int> halves(n);
   std::vector<LevelDecision> decision(n);
   std::vector<Real> errors(n);

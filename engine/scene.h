@@ -28,10 +28,10 @@ struct OutputSettings {
 };
 
 /// Metric names an `[accuracy]` section may list (scenes/README.md): `dem trade` measures these.
-inline constexpr std::array<const char*, 7> accuracy_metric_names = {"trajectory",     "dissipated_energy",
+inline constexpr std::array<const char*, 8> accuracy_metric_names = {"trajectory",     "dissipated_energy",
                                                                      "bed_height",     "kinetic_energy",
                                                                      "wall_force",     "power_draw",
-                                                                     "collision_spectrum"};
+                                                                     "collision_spectrum", "fines_dissipation_share"};
 
 /// What `dem trade` compares against its reference run; not physics (not in the physics hash).
 struct AccuracySettings {

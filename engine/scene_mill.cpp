@@ -3,10 +3,38 @@
 
 #include <cmath>
 
+#include "engine/collision_spectra.h"
 #include "engine/mill.h"
 #include "engine/particle_generator.h"
 
 namespace dem::loader {
+
+/// mill.size_classes: the radius edges [m] that split the collision spectra's events by kind.
+std::vector<double> read_size_classes(TableReader& r) {
+  std::vector<double> edges;
+  const std::string key = "size_classes";
+  if (!r.has(key)) return edges;
+  const std::string what = "must be an array of radii [m], positive and strictly ascending, that separate the size "
+                           "classes (e.g. [0.002]: below 2 mm and from 2 mm up)";
+  const toml::node* node = r.node(key);
+  const toml::array* a = node->as_array();
+  if (!a || a->empty()) r.fail(key, what + (a ? ", got an empty array" : ""));
+  if (a->size() >= static_cast<std::size_t>(CollisionSpectra::max_classes))
+    r.fail(key, what + ", at most " + std::to_string(CollisionSpectra::max_classes - 1) + " edges");
+  for (const toml::node& e : *a) {
+    std::optional<double> v = e.value_exact<double>();
+    if (!v) {
+      if (auto n = e.value_exact<int64_t>()) v = static_cast<double>(*n);
+    }
+    const toml::node* at = e.source().begin.line == 0 ? node : &e;
+    if (!v) r.fail_at(at, key, what + ", got a value that is not a number");
+    if (!(*v > 0) || !std::isfinite(*v)) r.fail_at(at, key, what + ", got " + TableReader::number(*v));
+    if (!edges.empty() && !(*v > edges.back()))
+      r.fail_at(at, key, what + ", got " + TableReader::number(*v) + " after " + TableReader::number(edges.back()));
+    edges.push_back(*v);
+  }
+  return edges;
+}
 
 /// [mill]: the shell, lifters and end walls as prescribed-motion walls, and the charge (engine/mill.h).
 void read_mill(TableReader& top, Scene& scene) {
@@ -43,6 +71,7 @@ void read_mill(TableReader& top, Scene& scene) {
   m.discard_revolutions = r.integer("discard_revolutions", 2);
   if (m.discard_revolutions < 0) r.fail("discard_revolutions", "must be >= 0");
   m.material = read_material_name(r, scene, "material");
+  scene.world.spectra_size_classes = read_size_classes(r);
   const Vec3 g = scene.world.model.gravity;
   if (!(g.norm() > 0) || std::abs(g.z()) > 1e-9 * g.norm())
     top.fail("scene", "a mill turns about the z axis: scene.gravity must be non-zero and in the xy plane");

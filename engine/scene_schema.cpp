@@ -49,7 +49,7 @@ const std::vector<SceneKey> schema = {
     {"mill.diameter", "m"}, {"mill.length", "m"}, {"mill.lifters", ""}, {"mill.lifter_height", "m"},
     {"mill.lifter_width", "m"}, {"mill.lifter_face_angle", "degrees"}, {"mill.rpm", "rpm"},
     {"mill.critical_fraction", "–"}, {"mill.direction", ""}, {"mill.ramp_time", "s"},
-    {"mill.discard_revolutions", ""}, {"mill.material", ""}, {"mill.charge", ""}, {"mill.charge.count", ""},
+    {"mill.discard_revolutions", ""}, {"mill.material", ""}, {"mill.size_classes", "m"}, {"mill.charge", ""}, {"mill.charge.count", ""},
     {"mill.charge.filling", "–"}, {"mill.charge.solids_fraction", "–"}, {"mill.charge.size", ""},
     {"mill.charge.material", ""}, {"mill.charge.seed", ""}, {"mill.charge.max_attempts", ""},
     {"mill.charge.size.distribution", ""}, {"mill.charge.size.radius", "m"}, {"mill.charge.size.min", "m"},

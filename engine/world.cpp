@@ -69,7 +69,10 @@ World::World(const WorldConfig& config)
   wall_contacts_.work = wall_contacts_.elastic;
   for (EnergyBooks& b : pairs.books) b.normal_work = b.normal_elastic;
   for (ContactHistory& h : wall_contacts_.history) h.normal_work = h.normal_elastic;
-  if (book_spectra) spectra_ = std::make_unique<CollisionSpectra>();
+  if (book_spectra) {
+    spectra_ = std::make_unique<CollisionSpectra>(config_.spectra_size_classes);
+    for (std::size_t p = 0; p < state_.size(); ++p) spectra_->classify(state_.id[p], state_.radius[p]);
+  }
   for (const WallConfig& w : config_.walls)
     walls_move_ = walls_move_ || w.velocity.norm() > 0 || w.angular_velocity.norm() > 0;
   start_energies_ = energies();
@@ -146,7 +149,11 @@ void World::evaluate_neighbour_forces(Real h, bool force_rebuild) {
   pairs_stale_ = true;
   const DashpotVelocity dashpot = dashpot_velocity();
   kernels_.neighbour_forces(state_, materials_, neighbours_, h, dashpot);
-  ended_dissipation_ += finish_ended_contacts(state_, neighbours_, pairs_, spectra_.get());
+  ended_dissipation_ += finish_ended_contacts(state_, neighbours_, pairs_, spectra_ ? &ended_events_ : nullptr);
+  if (spectra_ && !ended_events_.events().empty()) {
+    spectra_->record(ended_events_);
+    ended_events_.clear();
+  }
   update_walls(candidate_skin_);  // the lists take the skin chosen from the speeds, where it is
   kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, h, dashpot);
   gather_neighbour_forces(state_, neighbours_, wall_contacts_, adjacency_.wall_start, kernels_.uses_rotation,

@@ -314,6 +314,7 @@ class World {
   Energies start_energies_;     // at construction, for the energy balance
   Real exact_dissipated_ = 0;   // energy the exact stepper's contacts dissipated [J]
   std::unique_ptr<CollisionSpectra> spectra_;  // when booking contact events
+  ContactEvents ended_events_;                 // scratch: the neighbour lists' ended contacts, booked at once
   std::unique_ptr<DoublingWork> doubling_;  // step doubling's islands and scratch
   // Embedding (world_embedding.cpp).
   void refresh_after_population_change();

@@ -244,7 +244,6 @@ void gather_island(const Islands& islands, const std::vector<std::uint32_t>& loc
   job.island.adjacency.wall_start.clear();
   job.island.ended_dissipation = job.island.exact_dissipated = job.island.wall_work = 0;
   job.island.events.clear();
-  job.island.level_spectra.clear();
   job.island.exact_deepest = Worst{};
   job.island.unresolved = 0;
   std::vector<ExactHistoryRecord>& history = job.island.exact_history;
@@ -418,8 +417,6 @@ void World::finish_round() {
     const IslandJob& job = d.jobs[d.job_of[k]];
     ended_dissipation_ += job.island.ended_dissipation;
     if (spectra_) spectra_->record(job.island.events);
-    if (spectra_)
-      for (const CollisionSpectra& s : job.island.level_spectra) spectra_->add(s);
     exact_dissipated_ += job.island.exact_dissipated;
     if (job.island.exact_deepest.value > deepest_seen_.value) {  // the first of equals, in island order
       deepest_seen_ = job.island.exact_deepest;

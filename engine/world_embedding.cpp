@@ -162,6 +162,7 @@ ParticleId World::add_particle(const ParticleConfig& p) {
                                         static_cast<std::uint16_t>(mat));
   config_.particles.push_back(p);  // what it was given, for particles()
   config_.particles.back().id = state_.id[slot];
+  if (spectra_) spectra_->classify(state_.id[slot], p.radius);
   // Energy books: the newcomer's energy joins the reference, as if it had been there from the start
   // (the same terms as energies()).
   if (is_audited(inv_mass)) {
@@ -212,7 +213,7 @@ bool World::remove_particle(ParticleId id) {
     if (pairs_.i[k] == slot || pairs_.j[k] == slot) {
       carried += pairs_.elastic[k];
       if (contact_books) ended_dissipation_ += pairs_.work[k] - pairs_.elastic[k];
-      if (spectra_) spectra_->record(CollisionSpectra::ball_ball, pairs_.history(k), pairs_.work[k], pairs_.elastic[k]);
+      if (spectra_) spectra_->record_pair(pair_key(s.id[pairs_.i[k]], s.id[pairs_.j[k]]), pairs_.history(k), pairs_.work[k], pairs_.elastic[k]);
       continue;
     }
     copy_pair(pairs_, k, pairs_, kept);  // kept <= k: moves towards the front
@@ -227,7 +228,7 @@ bool World::remove_particle(ParticleId id) {
       carried += wall_contacts_.elastic[k];
       if (contact_books) ended_dissipation_ += wall_contacts_.work[k] - wall_contacts_.elastic[k];
       if (spectra_)
-        spectra_->record(CollisionSpectra::ball_wall, wall_contacts_.history[k], wall_contacts_.work[k], wall_contacts_.elastic[k]);
+        spectra_->record_wall(wall_contacts_.key[k], wall_contacts_.history[k], wall_contacts_.work[k], wall_contacts_.elastic[k]);
       continue;
     }
     copy_wall(wall_contacts_, k, wall_contacts_, kept);

@@ -92,8 +92,10 @@ TEST(NeighbourContacts, RebuildCarriesHistoryAndEndsWhatLeftTheCandidates) {
   contact.sliding_friction = 0.5;
   const MaterialTable materials({MaterialConfig{}}, {contact}, Separation::overlap);
   select_force_kernels(Separation::overlap, true, RollingKind::none).neighbour_forces(s, materials, nb, 1e-5, DashpotVelocity{});
+  ContactEvents events;
+  EXPECT_EQ(finish_ended_contacts(s, nb, before, &events), before.work[1] - before.elastic[1]);
   CollisionSpectra spectra;
-  EXPECT_EQ(finish_ended_contacts(s, nb, before, &spectra), before.work[1] - before.elastic[1]);
+  spectra.record(events);
   EXPECT_EQ(spectra.events(CollisionSpectra::ball_ball), 1u);
   EXPECT_TRUE(nb.left_behind.empty());
 }
@@ -172,7 +174,9 @@ TEST(NeighbourContacts, ContactsEndAsTheCompactPathEndsThem) {
   rebuild_neighbours(s, candidates, before, nb);
   const ForceKernels kernels = select_force_kernels(Separation::overlap, true, RollingKind::none);
   kernels.neighbour_forces(s, materials, nb, 1e-5, DashpotVelocity{});
-  const Real persistent_ended = finish_ended_contacts(s, nb, before, &persistent_spectra);
+  ContactEvents persistent_events;
+  const Real persistent_ended = finish_ended_contacts(s, nb, before, &persistent_events);
+  persistent_spectra.record(persistent_events);
 
   EXPECT_EQ(persistent_ended, compact_ended);
   EXPECT_NE(compact_ended, (before.work[0] - before.elastic[0]) + (before.work[1] - before.elastic[1]))

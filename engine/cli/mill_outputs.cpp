@@ -106,6 +106,13 @@ void MillOutputs::write_spectra(const World& world) const {
     return;
   }
   write_spectra_csv(out_ / "spectra.csv", *spectra, world.time());  // rates over the run from t = 0 (resumed too)
+  if (!quiet_ && spectra->class_count() > 1) {
+    std::printf("collision spectra: share of the dissipation by size class (a mixed contact half to each):");
+    for (int c = 0; c < spectra->class_count(); ++c)
+      std::printf(" %s %.4g", spectra->class_name(c).c_str(), spectra->dissipation_share(c));
+    std::printf("\n");
+    std::fflush(stdout);  // before the plot script's own lines
+  }
   run_plot_script("dem run", "plot_spectra.py", out_ / "spectra.csv", quiet_);
 }
 

@@ -85,11 +85,12 @@ int run_command(const RunOptions& options) {
     write_particle_csv((out / scene.output.settled_file).string(), world.particles());
   JsonObject summary = run_summary(scene, world, end, wall_seconds, start_energy);
   if (MillOutputs* mill = outputs.mill()) {
-    mill->write_spectra(world);
     summary.add("mill", mill->summary(world));
     if (const auto p = mill->mean_power_draw()) summary.add("mean_power_draw", *p);
   }
   write_file_atomically(out / "summary.json", summary.dump(2) + "\n");
+  // After summary.json: the spectra's plot names the size classes from it.
+  if (MillOutputs* mill = outputs.mill()) mill->write_spectra(world);
   const std::filesystem::path checkpoint = leave_checkpoints(world, scene, end, guard, out);
 
   if (!end.divergence.empty()) {

@@ -84,6 +84,32 @@ JsonObject watch_json(const World& world) {
   return watch;
 }
 
+/// The collision spectra's totals per kind and each size class's share of the dissipation
+/// (docs/physics.md 7.4): booked events only, contacts still open at the end are not in them.
+JsonObject spectra_json(const CollisionSpectra& spectra) {
+  JsonObject j;
+  j.add("size_classes", spectra.edges());
+  JsonObject classes;
+  for (int c = 0; c < spectra.class_count(); ++c) {
+    JsonObject cls;
+    cls.add("radius_min", c == 0 ? 0.0 : spectra.edges()[static_cast<std::size_t>(c - 1)]);
+    if (c + 1 < spectra.class_count()) cls.add("radius_max", spectra.edges()[static_cast<std::size_t>(c)]);
+    cls.add("dissipation_share", spectra.dissipation_share(c));
+    classes.add(spectra.class_name(c), cls);
+  }
+  j.add("classes", classes);
+  JsonObject kinds;
+  for (CollisionSpectra::Kind k = 0; k < spectra.kind_count(); ++k) {
+    JsonObject kind;
+    kind.add("events", spectra.events(k)).add("dissipated", spectra.dissipated(k));
+    kinds.add(spectra.kind_name(k), kind);
+  }
+  j.add("kinds", kinds);
+  j.add("dissipated", spectra.dissipated());
+  if (spectra.class_count() > 1) j.add("fines_dissipation_share", spectra.dissipation_share(0));
+  return j;
+}
+
 }  // namespace
 
 JsonObject run_summary(const Scene& scene, const World& world, const RunEnd& end, double wall_seconds,
@@ -102,6 +128,7 @@ JsonObject run_summary(const Scene& scene, const World& world, const RunEnd& end
       .add("end", energy_json(world))
       .add("state_hash", hex(world.state_hash()))
       .add("provenance", provenance_json(scene, world));
+  if (const CollisionSpectra* spectra = world.collision_spectra()) summary.add("collision_spectra", spectra_json(*spectra));
   return summary;
 }
 

@@ -93,6 +93,13 @@ Scene trade_scene(const TradeOptions& options) {
   if (spectrum_asked && reference_from_file(options))
     throw InputError("--reference", 0, 0, "", "collision_spectrum is not stored in a reference file: use --reference auto "
                                              "or leave collision_spectrum out of accuracy.metrics");
+  const bool share_asked = std::find(scene.accuracy.metrics.begin(), scene.accuracy.metrics.end(),
+                                     observable_names[fines_dissipation_share]) != scene.accuracy.metrics.end();
+  if (share_asked && !(scene.world.collision_spectra && scene.world.integrator.method == Method::verlet &&
+                       !scene.world.spectra_size_classes.empty()))
+    throw InputError(scene.file, 0, 0, "accuracy.metrics",
+                     "fines_dissipation_share needs a scene that books collision spectra in size classes: a [mill] "
+                     "with size_classes and integrator.method = \"verlet\"");
   return scene;
 }
 

@@ -42,6 +42,8 @@ Metrics choose_metrics(const Scene& scene) {
   });
   // A scene that books collision spectra (a mill) is measured by them too; only Verlet books them.
   m.spectrum = scene.world.collision_spectra && scene.world.integrator.method == Method::verlet;
+  // With size classes, the share of the dissipation that falls to the smallest (the fines).
+  m.observable[fines_dissipation_share] = m.spectrum && !scene.world.spectra_size_classes.empty();
   return m;
 }
 

@@ -39,11 +39,14 @@ Sample sample_of(const World& world, bool trajectory, const Vec3& up) {
   s.observable[wall_force] = force;
   s.observable[power_draw] = s.time > 0 ? world.wall_work() / s.time : 0;
   if (const CollisionSpectra* spectra = world.collision_spectra())
-    for (int kind = 0; kind < CollisionSpectra::kind_count; ++kind)
+  {
+    // Every kind's bins: with size classes the distance compares the spectra kind by kind.
+    for (CollisionSpectra::Kind kind = 0; kind < spectra->kind_count(); ++kind)
       for (int q = 0; q < CollisionSpectra::quantity_count; ++q)
         for (int b = 0; b < CollisionSpectra::bin_count; ++b)
-          s.spectrum.push_back(spectra->energy(static_cast<CollisionSpectra::Kind>(kind),
-                                               static_cast<CollisionSpectra::Quantity>(q), b));
+          s.spectrum.push_back(spectra->energy(kind, static_cast<CollisionSpectra::Quantity>(q), b));
+    if (spectra->class_count() > 1) s.observable[fines_dissipation_share] = spectra->dissipation_share(0);
+  }
   return s;
 }
 

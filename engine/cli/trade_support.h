@@ -24,21 +24,24 @@ inline constexpr double nan = std::numeric_limits<double>::quiet_NaN();
 // Metrics (trade_metrics.cpp)
 
 /// Observables of a many-body scene, measured at every sample time and compared at the end time.
-enum Observable { dissipated_energy, bed_height, kinetic_energy, wall_force, power_draw, observable_count };
+enum Observable { dissipated_energy, bed_height, kinetic_energy, wall_force, power_draw, fines_dissipation_share, observable_count };
 inline constexpr const char* observable_names[observable_count] = {"dissipated_energy", "bed_height", "kinetic_energy",
-                                                        "wall_force", "power_draw"};
-inline constexpr const char* observable_units[observable_count] = {"J", "m", "J", "N", "W"};
+                                                        "wall_force", "power_draw", "fines_dissipation_share"};
+inline constexpr const char* observable_units[observable_count] = {"J", "m", "J", "N", "W", "1"};
 inline constexpr const char* observable_meanings[observable_count] = {
     "energy dissipated by contacts since the start; at the end time",
     "mean height (along -gravity; z without gravity; y in 2D) of the highest 10% of particles; at the end time",
     "translational plus rotational kinetic energy; at the end time",
     "sum over walls of the magnitude of the force of the particles on the wall; at the end time",
-    "mean power of the moving walls on the particles since the start (a mill's drive power): wall work / time; at the end time"};
+    "mean power of the moving walls on the particles since the start (a mill's drive power): wall work / time; at the end time",
+    "share of the energy dissipated by the contact events ended since the start that falls to the smallest size class "
+    "(mill.size_classes; a contact between two classes counts half to each), 0 to 1; at the end time"};
 
 /// The collision energy spectrum (a mill's): compared as a whole at the end time.
 inline constexpr const char* spectrum_name = "collision_spectrum";
 inline constexpr const char* spectrum_meaning =
-    "distance of the collision energy spectra: over ball-ball and ball-liner events, impact energy and normal and "
+    "distance of the collision energy spectra: over every kind of event (ball-ball and ball-liner, or each pair of size "
+    "classes and each class with the liner), impact energy and normal and "
     "tangential loss, and every bin, the sum of |E_run - E_ref| over the sum of E_run + E_ref (E: energy booked in "
     "the bin by the events ended since the start); 0 for the same spectrum, 1 for disjoint ones; at the end time";
 
@@ -46,7 +49,7 @@ inline constexpr const char* spectrum_meaning =
 /// when chosen.
 struct Metrics {
   bool trajectory = false;
-  bool observable[observable_count] = {false, false, false, false, false};
+  bool observable[observable_count] = {false, false, false, false, false, false};
   bool spectrum = false;
 
   std::vector<std::string> columns() const {
@@ -75,7 +78,7 @@ std::string unit_of(const std::string& column);
 struct Sample {
   double time = 0;
   std::vector<Vec3> position, velocity;
-  double observable[observable_count] = {nan, nan, nan, nan, nan};
+  double observable[observable_count] = {nan, nan, nan, nan, nan, nan};
   std::vector<double> spectrum;  // energy per (kind, quantity, bin) [J]; empty: none booked or not read
 };
 
