@@ -188,7 +188,8 @@ void run_stage(benchmark::State& bench, const std::string& name, const Case& c, 
   };
   auto forces = [&] {
     d->kernels.pair_forces(d->state, d->materials, d->pairs, d->h, DashpotVelocity{});
-    d->kernels.wall_forces(d->state, d->materials, d->walls, d->wall_contacts, d->h, DashpotVelocity{});
+    d->kernels.wall_forces(d->state, d->materials, d->walls, d->wall_contacts, d->workspace.wall_touch, d->h,
+                           DashpotVelocity{});
     gather_forces(d->state, d->pairs, d->wall_contacts, d->adjacency, d->kernels.uses_rotation, d->dimension);
   };
   arena.execute([&] {  // the inputs each stage reads, as the World has them mid-step

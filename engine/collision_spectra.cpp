@@ -58,7 +58,12 @@ std::array<int, 2> CollisionSpectra::classes_of(Kind kind) const {
   return {0, 0};
 }
 
-std::string CollisionSpectra::class_name(int c) const { return class_count() == 1 ? "ball" : "c" + std::to_string(c); }
+std::string CollisionSpectra::class_name(int c) const {
+  if (class_count() == 1) return "ball";
+  std::string name = "c";  // appended, not "c" + ...: GCC 12's -Wrestrict misreads that at -O3
+  name += std::to_string(c);
+  return name;
+}
 
 std::string CollisionSpectra::kind_name(Kind kind) const {
   const std::array<int, 2> c = classes_of(kind);

@@ -247,43 +247,68 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
   const auto particle = [&](std::size_t v) -> std::size_t { return lists ? lists->listed_particles()[v] : v; };
   if (visited < n) work.count.assign(n, 0);
   else work.count.resize(n);
+  // Counting keeps each particle's first touches (wall, feature, geometry) in its own stretch of
+  // `found`: filling copies them instead of testing again.
+  constexpr std::uint32_t kept = wall_touches_kept;
+  work.found.resize(visited * kept);
   parallel_for(visited, [&](std::size_t v) {
     const std::size_t p = particle(v);
+    WallTouchFound* found = work.found.data() + v * kept;
+    std::uint32_t features[kept];
+    WallTouch touches[kept];
     std::uint32_t c = 0;
-    for_each_wall(p, [&](std::size_t w) { c += walls.touching_count(w, s.position[p], s.radius[p]); });
+    for_each_wall(p, [&](std::size_t w) {
+      const std::uint32_t room = c < kept ? kept - c : 0;
+      const std::uint32_t touched = walls.touching_features(w, s.position[p], s.radius[p], features, touches, room);
+      for (std::uint32_t q = 0; q < std::min(touched, room); ++q)
+        found[c + q] = {touches[q], static_cast<std::uint32_t>(w), features[q]};
+      c += touched;
+    });
     work.count[p] = c;
   });
   exclusive_scan(work.count, wall_start);
   WallContacts& fresh = work.walls;
   fresh.resize(wall_start[n]);
+  work.wall_touch.resize(wall_start[n]);
   parallel_for(visited, [&](std::size_t v) {
     const std::size_t p = particle(v);
-    std::uint32_t slot = wall_start[p];
-    for_each_wall(p, [&](std::size_t w) {
-      // The features go straight into this particle's slots, whose number the count above fixed.
-      const std::uint32_t touched = walls.touching_features(w, s.position[p], s.radius[p], fresh.feature.data() + slot);
-      for (std::uint32_t q = 0; q < touched; ++q) {
-        const std::uint32_t f = fresh.feature[slot];
-        fresh.key[slot] = wall_key(s.id[p], static_cast<std::uint32_t>(w), f);
-        fresh.particle[slot] = static_cast<ParticleIndex>(p);
-        fresh.wall[slot] = static_cast<std::uint32_t>(w);
-        const std::ptrdiff_t old = find_key(contacts.key, fresh.key[slot]);
-        if (old >= 0) {
-          fresh.history[slot] = contacts.history[old];
-          fresh.work[slot] = contacts.work[old];
-          fresh.elastic[slot] = contacts.elastic[old];
-          fresh.overlap[slot] = contacts.overlap[old];
-          fresh.force[slot] = contacts.force[old];
-        } else {
-          fresh.history[slot] = ContactHistory{};
-          fresh.work[slot] = 0;
-          fresh.elastic[slot] = 0;
-          fresh.overlap[slot] = 0;
-          fresh.force[slot].setZero();
-        }
-        ++slot;
+    const std::uint32_t first = wall_start[p], end = wall_start[p + 1];
+    if (end - first <= kept) {
+      const WallTouchFound* found = work.found.data() + v * kept;
+      for (std::uint32_t slot = first; slot < end; ++slot) {
+        fresh.wall[slot] = found[slot - first].wall;
+        fresh.feature[slot] = found[slot - first].feature;
+        work.wall_touch[slot] = found[slot - first].touch;
       }
-    });
+    } else {
+      // More touches than were kept: the features and geometry go straight into this particle's
+      // slots, whose number the count above fixed.
+      std::uint32_t slot = first;
+      for_each_wall(p, [&](std::size_t w) {
+        const std::uint32_t touched = walls.touching_features(w, s.position[p], s.radius[p], fresh.feature.data() + slot,
+                                                              work.wall_touch.data() + slot, end - slot);
+        for (std::uint32_t q = 0; q < touched; ++q) fresh.wall[slot + q] = static_cast<std::uint32_t>(w);
+        slot += touched;
+      });
+    }
+    for (std::uint32_t slot = first; slot < end; ++slot) {
+      fresh.key[slot] = wall_key(s.id[p], fresh.wall[slot], fresh.feature[slot]);
+      fresh.particle[slot] = static_cast<ParticleIndex>(p);
+      const std::ptrdiff_t old = find_key(contacts.key, fresh.key[slot]);
+      if (old >= 0) {
+        fresh.history[slot] = contacts.history[old];
+        fresh.work[slot] = contacts.work[old];
+        fresh.elastic[slot] = contacts.elastic[old];
+        fresh.overlap[slot] = contacts.overlap[old];
+        fresh.force[slot] = contacts.force[old];
+      } else {
+        fresh.history[slot] = ContactHistory{};
+        fresh.work[slot] = 0;
+        fresh.elastic[slot] = 0;
+        fresh.overlap[slot] = 0;
+        fresh.force[slot].setZero();
+      }
+    }
   });
   DEM_VALIDATE(std::is_sorted(fresh.key.begin(), fresh.key.end()));
   parallel_for(contacts.size(), [&](std::size_t k) {

@@ -160,6 +160,14 @@ struct ContactAdjacency {
 };
 
 /// Scratch buffers reused between calls (no allocation after warm-up).
+/// One touch of a particle with a wall feature, as update_wall_contacts' counting pass keeps it.
+struct WallTouchFound {
+  WallTouch touch;
+  std::uint32_t wall;
+  std::uint32_t feature;
+};
+inline constexpr std::uint32_t wall_touches_kept = 2;
+
 struct ContactWorkspace {
   std::vector<std::uint32_t> count;
   std::vector<std::uint32_t> offset;
@@ -171,6 +179,11 @@ struct ContactWorkspace {
   PairContacts carry;  // the carried arrays only, one chunk long
   PairContacts pairs;  // step doubling's new list (world_doubling.cpp)
   WallContacts walls;
+  // update_wall_contacts: per visited particle, the first wall_touches_kept touches its counting pass
+  // found, so filling its row tests no wall again (a particle with more is tested again); and per
+  // contact of the new list its geometry, which the force loop reads instead of testing again.
+  std::vector<WallTouchFound> found;
+  std::vector<WallTouch> wall_touch;
 };
 
 /// Called by update_pair_contacts while the old list's keys and carried fields are still whole
@@ -184,9 +197,10 @@ Real update_pair_contacts(const State& state, const broadphase::CandidatePairs& 
                           const MaterialTable& materials, PairContacts& contacts, ContactWorkspace& work,
                           const EndedPairsHook& on_ended = {});
 
-/// Replaces `contacts` by the current particle-wall overlaps, inheriting history by key. Returns the
-/// energy dissipated by the contacts that ended [J]. With `lists` (valid for this state, wall_lists.h)
-/// each particle is tested against its listed walls only; without, against every wall: the same list.
+/// Replaces `contacts` by the current particle-wall overlaps, inheriting history by key, and leaves
+/// each new contact's geometry in work.wall_touch for the force loop. Returns the energy dissipated by
+/// the contacts that ended [J]. With `lists` (valid for this state, wall_lists.h) each particle is
+/// tested against its listed walls only; without, against every wall: the same list.
 Real update_wall_contacts(const State& state, const Walls& walls, const MaterialTable& materials,
                           WallContacts& contacts, ContactWorkspace& work, std::vector<std::uint32_t>& wall_start,
                           const WallLists* lists = nullptr);

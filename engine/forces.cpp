@@ -207,22 +207,14 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
 }
 
 template <class Law>
-void wall_forces(const State& s, const MaterialTable& materials, const Walls& walls, WallContacts& c, Real h,
-                 const DashpotVelocity& d) {
+void wall_forces(const State& s, const MaterialTable& materials, const Walls& walls, WallContacts& c,
+                 const std::vector<WallTouch>& touches, Real h, const DashpotVelocity& d) {
+  DEM_ASSERT(touches.size() == c.size());
   parallel_for(c.size(), [&](std::size_t k) {
     const ParticleIndex p = c.particle[k];
     const std::uint32_t w = c.wall[k];
-    WallTouch touch;
-    // Contacts are rebuilt at these very positions, so touch() holds; should it not, no force.
-    if (!walls.touch(w, c.feature[k], s.position[p], s.radius[p], touch)) {
-      c.overlap[k] = 0;
-      c.elastic[k] = 0;
-      c.point[k] = s.position[p];
-      c.force[k].setZero();
-      c.torque[k].setZero();
-      c.rolling_torque[k].setZero();
-      return;
-    }
+    // Contacts are rebuilt at these very positions: every one touches, with this geometry.
+    const WallTouch& touch = touches[k];
     const Vec3& n = touch.normal;
     const Real arm = s.radius[p] - 0.5 * touch.overlap;
     const Vec3 point = s.position[p] - arm * n;

@@ -33,8 +33,9 @@ struct ForceKernels {
   /// The same over a persistent list (neighbour_contacts.h): contacts start and end in their slots.
   void (*neighbour_forces)(const State&, const MaterialTable&, NeighbourContacts&, Real h,
                            const DashpotVelocity&) = nullptr;
-  void (*wall_forces)(const State&, const MaterialTable&, const Walls&, WallContacts&, Real h,
-                      const DashpotVelocity&) = nullptr;
+  /// `touches`: each contact's geometry at these positions, as update_wall_contacts leaves it.
+  void (*wall_forces)(const State&, const MaterialTable&, const Walls&, WallContacts&,
+                      const std::vector<WallTouch>& touches, Real h, const DashpotVelocity&) = nullptr;
   bool uses_rotation = false;
 };
 

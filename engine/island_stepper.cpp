@@ -26,7 +26,8 @@ void evaluate_forces(IslandState& s, const broadphase::CandidatePairs& candidate
       update_wall_contacts(st, scratch.walls, *physics.materials, s.walls, scratch.contacts, s.adjacency.wall_start);
   if (physics.book_events) s.events.record_ended(scratch.contacts.walls, s.walls);
   physics.kernels.pair_forces(st, *physics.materials, s.pairs, h, physics.dashpot);
-  physics.kernels.wall_forces(st, *physics.materials, scratch.walls, s.walls, h, physics.dashpot);
+  physics.kernels.wall_forces(st, *physics.materials, scratch.walls, s.walls, scratch.contacts.wall_touch, h,
+                              physics.dashpot);
   gather_forces(st, s.pairs, s.walls, s.adjacency, physics.kernels.uses_rotation, physics.dimension);
 }
 

@@ -27,7 +27,7 @@ std::size_t heap_bytes(const ContactAdjacency& a) {
 std::size_t heap_bytes(const ContactWorkspace& w) {
   return heap_bytes(w.count) + heap_bytes(w.offset) + heap_bytes(w.row_ended) + heap_bytes(w.key) +
          heap_bytes(w.source) + heap_bytes(w.carry) + heap_bytes(w.pairs) +
-         heap_bytes(w.walls);
+         heap_bytes(w.walls) + heap_bytes(w.found) + heap_bytes(w.wall_touch);
 }
 
 std::size_t heap_bytes(const broadphase::CandidatePairs& c) { return heap_bytes(c.row_start) + heap_bytes(c.partner); }

@@ -250,7 +250,7 @@ void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
   ended_dissipation_ +=
       update_wall_contacts(sub, *walls_, *physics_.materials, wall_contacts_[c], workspace_, wall_start_[c], lists);
   if (physics_.book_events) events_.record_ended(workspace_.walls, wall_contacts_[c]);
-  physics_.kernels.wall_forces(sub, *physics_.materials, *walls_, wall_contacts_[c], h, dashpot);
+  physics_.kernels.wall_forces(sub, *physics_.materials, *walls_, wall_contacts_[c], workspace_.wall_touch, h, dashpot);
   // Work of moving walls, with the forces at the end of the step (a rectangle rule, as the fixed step's).
   if (physics_.walls_move) wall_work_ += h * wall_power(*walls_, wall_contacts_[c]);
 }

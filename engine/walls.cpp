@@ -323,32 +323,45 @@ Real Walls::max_travel(std::size_t w, Real t0, Real t1) const {
   return travel;
 }
 
-std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features) const {
+std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features,
+                                       WallTouch* touches, std::uint32_t room) const {
   const WallConfig& c = config_[w];
+  const Pose& p = pose_[w];
   std::uint32_t count = 0;
+  const auto found = [&](std::uint32_t f, const WallTouch& t) {
+    if (count < room) features[count] = f, touches[count] = t;
+    ++count;
+  };
   if (c.kind == WallKind::box && c.inside) {
     // Six faces from one transform; the same expressions as touch() so the answers agree exactly.
-    const Vec3 local = pose_[w].rotation.transpose() * (x - pose_[w].point);
+    const Vec3 local = p.rotation.transpose() * (x - p.point);
     for (std::uint32_t f = 0; f < 6; ++f) {
       const int axis = static_cast<int>(f / 2);
       const Real side = (f % 2 == 0) ? -1 : 1;
-      if (r - (c.half_extents[axis] - side * local[axis]) > 0) features[count++] = f;
+      const Real overlap = r - (c.half_extents[axis] - side * local[axis]);
+      if (overlap > 0) found(f, WallTouch{-side * p.rotation.col(axis), overlap});
     }
     return count;
   }
   if (c.kind == WallKind::mesh) {
-    for (const MeshContact& m : mesh_contacts(w, x, r)) features[count++] = m.feature;
+    const std::vector<MeshContact>& contacts = mesh_contacts(w, x, r);
+    if (room == 0) return static_cast<std::uint32_t>(contacts.size());
+    for (const MeshContact& m : contacts) found(m.feature, WallTouch{p.rotation * m.normal, m.overlap});
     return count;
   }
   WallTouch t;
-  if (touch(w, 0, x, r, t)) features[count++] = 0;
+  if (touch(w, 0, x, r, t)) found(0, t);
   return count;
 }
 
-std::uint32_t Walls::touching_count(std::size_t w, const Vec3& x, Real r) const {
-  if (config_[w].kind == WallKind::mesh) return static_cast<std::uint32_t>(mesh_contacts(w, x, r).size());
-  std::uint32_t features[6];
-  return touching_features(w, x, r, features);
+std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features) const {
+  if (config_[w].kind == WallKind::mesh) {
+    std::uint32_t count = 0;
+    for (const MeshContact& m : mesh_contacts(w, x, r)) features[count++] = m.feature;
+    return count;
+  }
+  WallTouch touches[6];
+  return touching_features(w, x, r, features, touches, 6);
 }
 
 Vec3 Walls::velocity_at(std::size_t w, const Vec3& x) const {

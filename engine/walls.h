@@ -59,13 +59,19 @@ class Walls {
 
   /// Contact of a sphere (centre x, radius r) with feature f of wall w; false if not touching.
   bool touch(std::size_t w, std::uint32_t f, const Vec3& x, Real r, WallTouch& out) const;
-  /// Features of wall w a sphere touches, in ascending order, written to features[] (room for
-  /// touching_count(w, x, r) entries; at most 6 for walls other than meshes); returns how many. The
-  /// same answers as touch() on each feature, with the geometry set up once. A feature touched at
+  /// Features of wall w a sphere touches, in ascending order, with the geometry touch() gives each:
+  /// the first `room` of them are written to features[] and touches[]; returns how many there are
+  /// (more than `room` when they do not fit; at most 6 for walls other than meshes). The same answers
+  /// as touch() on each feature, bit for bit, with the geometry set up once. A feature touched at
   /// radius r is touched at any larger radius too (for a mesh: triangle_mesh.h's rules keep that).
+  std::uint32_t touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features, WallTouch* touches,
+                                  std::uint32_t room) const;
+  /// The same features without their geometry, all of them (room for touching_count(w, x, r)).
   std::uint32_t touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features) const;
-  /// How many features touching_features would write.
-  std::uint32_t touching_count(std::size_t w, const Vec3& x, Real r) const;
+  /// How many features touching_features finds.
+  std::uint32_t touching_count(std::size_t w, const Vec3& x, Real r) const {
+    return touching_features(w, x, r, nullptr, nullptr, 0);
+  }
   /// Whether the wall lists of a wall broadphase (wall_lists.h) filter wall w: prisms (lifter bars,
   /// many and small, so most particles are far from most of them), boxes that do not turn, and planes
   /// and cylinders whose turning leaves their surface in place (a container, a mill's shell and end

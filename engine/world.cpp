@@ -122,7 +122,7 @@ void World::evaluate_forces(Real h, bool force_rebuild) {
   update_walls(skin_);
   const DashpotVelocity dashpot = dashpot_velocity();
   kernels_.pair_forces(state_, materials_, pairs_, h, dashpot);
-  kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, h, dashpot);
+  kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, workspace_.wall_touch, h, dashpot);
   gather_forces(state_, pairs_, wall_contacts_, adjacency_, kernels_.uses_rotation, config_.model.dimension);
 }
 
@@ -155,7 +155,7 @@ void World::evaluate_neighbour_forces(Real h, bool force_rebuild) {
     ended_events_.clear();
   }
   update_walls(candidate_skin_);  // the lists take the skin chosen from the speeds, where it is
-  kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, h, dashpot);
+  kernels_.wall_forces(state_, materials_, walls_, wall_contacts_, workspace_.wall_touch, h, dashpot);
   gather_neighbour_forces(state_, neighbours_, wall_contacts_, adjacency_.wall_start, kernels_.uses_rotation,
                           config_.model.dimension);
 }

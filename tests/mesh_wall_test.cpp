@@ -87,9 +87,12 @@ TEST(MeshWall, MatchesASolidBoxWallAtEveryPoseAndPoint) {
       ASSERT_EQ(walls.touching_count(1, x, r), touching ? 1u : 0u) << k;
       if (!touching) continue;
       std::uint32_t f = 0;
-      walls.touching_features(1, x, r, &f);
+      WallTouch found;
+      walls.touching_features(1, x, r, &f, &found, 1);
       WallTouch got;
       ASSERT_TRUE(walls.touch(1, f, x, r, got));
+      EXPECT_EQ(found.overlap, got.overlap);
+      EXPECT_EQ(found.normal, got.normal);
       EXPECT_NEAR(got.overlap, expected.overlap, 1e-12);
       EXPECT_LT((got.normal - expected.normal).norm(), 1e-12);
       EXPECT_EQ(walls.velocity_at(0, x), walls.velocity_at(1, x));
