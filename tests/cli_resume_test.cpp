@@ -35,7 +35,18 @@ TEST(CliResume, ResumedRunEqualsStraightRunBitForBit) {
   for (const auto& e : fs::directory_iterator(base / "split"))
     if (e.path().filename().string().rfind("checkpoint_", 0) == 0) checkpoint = e.path();
   ASSERT_FALSE(checkpoint.empty()) << "a run writes a checkpoint at its end";
+  const dem::test::cli::Json first_half = dem::test::cli::read_json(base / "split" / "summary.json");
   ASSERT_EQ(run("--until 0.3 --out " + (base / "split").string() + " --resume " + checkpoint.string()), 0);
+  // The counters go on from the checkpoint; the rate counts this invocation's steps only.
+  const dem::test::cli::Json whole = dem::test::cli::read_json(base / "straight" / "summary.json");
+  const dem::test::cli::Json second_half = dem::test::cli::read_json(base / "split" / "summary.json");
+  EXPECT_EQ(second_half["counters"]["particle_steps"].number, whole["counters"]["particle_steps"].number);
+  EXPECT_EQ(first_half["run_particle_steps"].number, first_half["counters"]["particle_steps"].number);
+  EXPECT_EQ(second_half["run_particle_steps"].number,
+            whole["counters"]["particle_steps"].number - first_half["counters"]["particle_steps"].number);
+  EXPECT_GT(second_half["run_particle_steps"].number, 0);
+  EXPECT_NEAR(second_half["particle_steps_per_second"].number * second_half["wall_time"].number,
+              second_half["run_particle_steps"].number, 1e-6 * second_half["run_particle_steps"].number);
 
   EXPECT_EQ(hash_of(base / "split" / "summary.json"), hash_of(base / "straight" / "summary.json"));
   EXPECT_FALSE(hash_of(base / "straight" / "summary.json").empty());

@@ -73,6 +73,7 @@ int run_command(const RunOptions& options) {
     }
   }
   const JsonObject start_energy = energy_json(world);
+  const std::uint64_t steps_before = world.counters().particle_steps;  // a checkpoint's, when resuming
   RunOutputs outputs(scene, world, out, resuming, options.quiet);
   if (!resuming) outputs.write(world, false);
   DivergenceGuard guard(world, scene.physics_hash);
@@ -83,7 +84,8 @@ int run_command(const RunOptions& options) {
   // density each particle was given, material and state (engine/particle_csv.h).
   if (!scene.output.settled_file.empty() && end.divergence.empty())
     write_particle_csv((out / scene.output.settled_file).string(), world.particles());
-  JsonObject summary = run_summary(scene, world, end, wall_seconds, start_energy);
+  const std::uint64_t run_steps = world.counters().particle_steps - steps_before;
+  JsonObject summary = run_summary(scene, world, end, wall_seconds, run_steps, start_energy);
   if (MillOutputs* mill = outputs.mill()) {
     summary.add("mill", mill->summary(world));
     if (const auto p = mill->mean_power_draw()) summary.add("mean_power_draw", *p);
@@ -101,11 +103,10 @@ int run_command(const RunOptions& options) {
                  world.time(), end.divergence.c_str(), guard.last_good_time(), checkpoint.string().c_str());
     return 3;
   }
-  const std::uint64_t particle_steps = world.counters().particle_steps;
   if (!options.quiet)
     std::printf("%s: t = %.6g s, %llu particle-steps in %.3g s (%.3g particle-steps/s), state hash %s, outputs in %s\n",
-                scene.name.c_str(), world.time(), static_cast<unsigned long long>(particle_steps), wall_seconds,
-                static_cast<double>(particle_steps) / std::max(wall_seconds, 1e-9), hex(world.state_hash()).c_str(),
+                scene.name.c_str(), world.time(), static_cast<unsigned long long>(run_steps), wall_seconds,
+                static_cast<double>(run_steps) / std::max(wall_seconds, 1e-9), hex(world.state_hash()).c_str(),
                 out.string().c_str());
   return 0;
 }

@@ -113,7 +113,7 @@ JsonObject spectra_json(const CollisionSpectra& spectra) {
 }  // namespace
 
 JsonObject run_summary(const Scene& scene, const World& world, const RunEnd& end, double wall_seconds,
-                       const JsonObject& start_energy) {
+                       std::uint64_t run_particle_steps, const JsonObject& start_energy) {
   const RunCounters& c = world.counters();
   JsonObject summary;
   summary.add("status", end.divergence.empty() ? "ok" : "diverged")
@@ -123,7 +123,9 @@ JsonObject run_summary(const Scene& scene, const World& world, const RunEnd& end
       .add("counters", counters_json(scene, c))
       .add("watch", watch_json(world))
       .add("wall_time", wall_seconds)
-      .add("particle_steps_per_second", static_cast<double>(c.particle_steps) / std::max(wall_seconds, 1e-9))
+      // This invocation's steps (a resumed run's counters go on from its checkpoint's).
+      .add("run_particle_steps", run_particle_steps)
+      .add("particle_steps_per_second", static_cast<double>(run_particle_steps) / std::max(wall_seconds, 1e-9))
       .add("start", start_energy)
       .add("end", energy_json(world))
       .add("state_hash", hex(world.state_hash()))
