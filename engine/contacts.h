@@ -159,15 +159,16 @@ struct ContactAdjacency {
   std::vector<std::uint32_t> cursor;      // scratch of build_pair_adjacency
 };
 
-/// Scratch buffers reused between calls (no allocation after warm-up).
 /// One touch of a particle with a wall feature, as update_wall_contacts' counting pass keeps it.
 struct WallTouchFound {
   WallTouch touch;
   std::uint32_t wall;
   std::uint32_t feature;
 };
+/// How many touches per particle the counting pass keeps (most particles touch one wall feature).
 inline constexpr std::uint32_t wall_touches_kept = 2;
 
+/// Scratch buffers reused between calls (no allocation after warm-up).
 struct ContactWorkspace {
   std::vector<std::uint32_t> count;
   std::vector<std::uint32_t> offset;

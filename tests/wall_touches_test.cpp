@@ -6,11 +6,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <memory>
 #include <random>
 
 #include <Eigen/Geometry>
 
 #include "engine/contacts.h"
+#include "engine/triangle_mesh.h"
 #include "engine/wall_lists.h"
 #include "engine/walls.h"
 
@@ -19,7 +22,7 @@ namespace {
 
 MaterialTable one_material() { return MaterialTable({MaterialConfig{}}, {ContactConfig{}}, Separation::force_zero); }
 
-/// A container box turned about z, a solid block, a floor, a drum and a triangular bar, all moving.
+/// A container box turned about z, a solid block, a floor, a drum, a triangular bar and a mesh, all moving.
 std::vector<WallConfig> walls_of_every_kind() {
   std::vector<WallConfig> config;
   WallConfig container;
@@ -55,6 +58,15 @@ std::vector<WallConfig> walls_of_every_kind() {
   bar.angular_velocity = Vec3(0, 0, 3);
   bar.use_rotation_center = true;
   config.push_back(bar);
+  // A square of two triangles facing +y, tilted and turning: faces, edges and corners.
+  WallConfig mesh;
+  mesh.kind = WallKind::mesh;
+  mesh.mesh = std::make_shared<const TriangleMesh>(
+      std::vector<Vec3>{{-0.04, 0, -0.04}, {0.04, 0, -0.04}, {0.04, 0.01, 0.04}, {-0.04, 0.01, 0.04}},
+      std::vector<std::array<std::uint32_t, 3>>{{0, 2, 1}, {0, 3, 2}});
+  mesh.point = Vec3(0.02, 0.04, 0);
+  mesh.angular_velocity = Vec3(0.5, 0, 1);
+  config.push_back(mesh);
   return config;
 }
 
@@ -64,7 +76,7 @@ TEST(WallTouches, EachFeatureGetsTouchsGeometryBitForBitAndTheCountGoesPastTheRo
   Walls walls(walls_of_every_kind(), one_material());
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<Real> u(-0.11, 0.11), radius(0.002, 0.03);
-  std::size_t touched = 0, several = 0;
+  std::size_t touched = 0, several = 0, meshes = 0;
   for (const Real t : {0.0, 0.4}) {
     walls.set_time(t);
     for (int k = 0; k < 4000; ++k) {
@@ -77,10 +89,12 @@ TEST(WallTouches, EachFeatureGetsTouchsGeometryBitForBitAndTheCountGoesPastTheRo
           WallTouch g;
           if (walls.touch(w, f, x, r, g)) expected.push_back(f), geometry.push_back(g);
         }
-        std::uint32_t features[6];
-        WallTouch touches[6];
-        const std::uint32_t count = walls.touching_features(w, x, r, features, touches, 6);
+        constexpr std::uint32_t room = 16;
+        std::uint32_t features[room];
+        WallTouch touches[room];
+        const std::uint32_t count = walls.touching_features(w, x, r, features, touches, room);
         ASSERT_EQ(count, expected.size()) << "wall " << w << ", sphere " << k;
+        ASSERT_LE(count, room);
         ASSERT_EQ(walls.touching_count(w, x, r), count);
         for (std::uint32_t q = 0; q < count; ++q) {
           EXPECT_EQ(features[q], expected[q]);
@@ -88,6 +102,7 @@ TEST(WallTouches, EachFeatureGetsTouchsGeometryBitForBitAndTheCountGoesPastTheRo
           EXPECT_EQ(touches[q].normal, geometry[q].normal);
         }
         touched += count > 0;
+        meshes += walls.config(w).kind == WallKind::mesh && count > 0;
         if (count < 2) continue;
         ++several;
         // Room for one: the first is written, the rest only counted.
@@ -104,6 +119,7 @@ TEST(WallTouches, EachFeatureGetsTouchsGeometryBitForBitAndTheCountGoesPastTheRo
   }
   EXPECT_GT(touched, 2000u);
   EXPECT_GT(several, 100u) << "spheres in the container's edges and corners";
+  EXPECT_GT(meshes, 50u);
 }
 
 TEST(WallTouches, TheContactListAndItsGeometryMatchABruteForceSearchWithAndWithoutLists) {
@@ -129,7 +145,8 @@ TEST(WallTouches, TheContactListAndItsGeometryMatchABruteForceSearchWithAndWitho
         expected_keys.push_back(wall_key(s.id[p], static_cast<std::uint32_t>(w), f));
         expected_geometry.push_back(g);
       }
-  ASSERT_GE(std::count_if(expected_keys.begin(), expected_keys.end(), [&](std::uint64_t key) { return key >> 32 == s.id[0]; }), 3);
+  const auto of_first = [&](std::uint64_t key) { return key >> 32 == s.id[0]; };
+  ASSERT_GE(std::count_if(expected_keys.begin(), expected_keys.end(), of_first), 3);
   WallLists lists;
   lists.build(s, walls, 0.005);
   const MaterialTable materials = one_material();
