@@ -285,11 +285,14 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
       // slots, whose number the count above fixed.
       std::uint32_t slot = first;
       for_each_wall(p, [&](std::size_t w) {
-        const std::uint32_t touched = walls.touching_features(w, s.position[p], s.radius[p], fresh.feature.data() + slot,
-                                                              work.wall_touch.data() + slot, end - slot);
+        const std::uint32_t touched = std::min(
+            walls.touching_features(w, s.position[p], s.radius[p], fresh.feature.data() + slot,
+                                    work.wall_touch.data() + slot, end - slot),
+            end - slot);
         for (std::uint32_t q = 0; q < touched; ++q) fresh.wall[slot + q] = static_cast<std::uint32_t>(w);
         slot += touched;
       });
+      DEM_ASSERT(slot == end);  // the same tests as the count's
     }
     for (std::uint32_t slot = first; slot < end; ++slot) {
       fresh.key[slot] = wall_key(s.id[p], fresh.wall[slot], fresh.feature[slot]);

@@ -232,7 +232,7 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
     } else {
       set_rates(kin, half_step, nullptr);
     }
-    kin.onset = c.overlap[k] == 0;  // a new contact (or one whose touch failed last time)
+    kin.onset = c.overlap[k] == 0;  // a new contact: no evaluation has stored its overlap yet
     ContactHistory& history = c.history[k];
     if (history.impact_energy < 0) history.impact_energy = 0.5 * kin.overlap_rate * kin.overlap_rate / s.inv_mass[p];
     const LawConstants constants = materials.law_constants<Law::friction, Law::rolling>(

@@ -10,10 +10,11 @@
 namespace dem {
 namespace {
 
-/// A member's level is that of its full trial; the island keeps the half trial, one level finer. So a
-/// bound on the step a member is accepted at allows its full trial one level above it.
-int full_trial_level(int accepted_level, const DoublingSettings& settings) {
-  return std::min(accepted_level + 1, settings.level_max);
+/// A member's level is that of its full trial; the island keeps the half trial, one level finer. So
+/// the highest level whose accepted step is at most `step`: one above the level of `step`, and
+/// level_min when even that is below level_min (both trials then run at level_min).
+int full_trial_level(Real step, const DoublingSettings& settings) {
+  return level_of_step(step, settings.dt_base, settings.level_min - 1, settings.level_max - 1) + 1;
 }
 
 /// The island's state after an accepted trial, its contacts and books; `origin` holds the members'
@@ -63,9 +64,7 @@ void stability_levels(const IslandState& island, const MaterialTable& materials,
   for (std::size_t q = 0; q < s.size(); ++q) {
     level[q] = settings.level_max;
     if (s.inv_mass[q] == 0 || stiffness[q] <= 0) continue;
-    level[q] = full_trial_level(level_of_step(std::sqrt(1 / (s.inv_mass[q] * stiffness[q])), settings.dt_base,
-                                              settings.level_min, settings.level_max),
-                                settings);
+    level[q] = full_trial_level(std::sqrt(1 / (s.inv_mass[q] * stiffness[q])), settings);
   }
 }
 
@@ -76,9 +75,7 @@ void anticipate_per_pair(const State& s, const broadphase::CandidatePairs& candi
                          std::vector<int>& levels) {
   const Real h = std::ldexp(settings.dt_base, chunk_level);
   const auto resolving = [&](std::uint16_t pair_class, Real inv_m) {
-    return full_trial_level(contact_resolving_level(materials.params(pair_class).k_n, inv_m, settings.dt_base,
-                                                    settings.level_min, settings.level_max),
-                            settings);
+    return full_trial_level(contact_resolving_step(materials.params(pair_class).k_n, inv_m), settings);
   };
   for (std::size_t a = 0; a < s.size(); ++a) {
     for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
@@ -145,11 +142,14 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
     for (int& l : levels) l = aligned_level(std::clamp(l, level_min, settings.level_max), level_min, tick, end);
     int highest = coarsest();
     const Real t = t0 + static_cast<Real>(tick) * finest;
-    // No member of an approaching pair accepted above the level that resolves its contact (never below
-    // contact_level, which resolves the stiffest, lightest pair: nothing to cap at or under its full
-    // trial), and none above the level that keeps it stable on the springs it touches.
+    // No member of an approaching pair accepted above the level that resolves its contact, and none
+    // above the level that keeps it stable on the springs it touches. No pair's cap lies below the
+    // full trial of contact_level, which resolves the stiffest, lightest pair (at level_min, that
+    // level may have been clamped: then caps may reach level_min itself).
     walls.set_time(t);
-    if (highest > full_trial_level(settings.contact_level, settings))
+    const int uncapped = settings.contact_level > level_min ? std::min(settings.contact_level + 1, settings.level_max)
+                                                            : level_min;
+    if (highest > uncapped)
       anticipate_per_pair(island.state, candidates, *physics.materials, walls, physics.gravity, settings, highest,
                           levels);
     stability_levels(island, *physics.materials, walls, settings, stability);

@@ -20,10 +20,13 @@ inline int level_of_step(Real step, Real dt_base, int level_min, int level_max) 
   return static_cast<int>(std::clamp(std::floor(std::log2(step / dt_base)), Real(level_min), Real(level_max)));
 }
 
-/// The level that resolves a contact of normal stiffness k between particles whose inverse masses sum
-/// to inv_m: a step of t_c / 8, t_c = pi / sqrt(k inv_m).
+/// The step that resolves a contact of normal stiffness k between particles whose inverse masses sum
+/// to inv_m: t_c / 8, t_c = pi / sqrt(k inv_m).
+inline Real contact_resolving_step(Real k, Real inv_m) { return std::acos(-1.0) / std::sqrt(k * inv_m) / 8; }
+
+/// The level of that step.
 inline int contact_resolving_level(Real k, Real inv_m, Real dt_base, int level_min, int level_max) {
-  return level_of_step(std::acos(-1.0) / std::sqrt(k * inv_m) / 8, dt_base, level_min, level_max);
+  return level_of_step(contact_resolving_step(k, inv_m), dt_base, level_min, level_max);
 }
 
 /// `level` lowered (not below level_min) until its step starts at `tick` on its own grid and ends by `end`.

@@ -339,7 +339,9 @@ std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std
       const int axis = static_cast<int>(f / 2);
       const Real side = (f % 2 == 0) ? -1 : 1;
       const Real overlap = r - (c.half_extents[axis] - side * local[axis]);
-      if (overlap > 0) found(f, WallTouch{-side * p.rotation.col(axis), overlap});
+      if (!(overlap > 0)) continue;
+      if (count < room) found(f, WallTouch{-side * p.rotation.col(axis), overlap});
+      else ++count;  // counted only: no geometry to build
     }
     return count;
   }

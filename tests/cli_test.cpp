@@ -488,8 +488,8 @@ TEST(Outputs, FilesHaveTheDocumentedShape) {
 
   const Json summary = read_json(out / "summary.json");
   ASSERT_EQ(summary.kind, Json::Kind::object);
-  for (const char* key : {"status", "time", "settings", "counters", "wall_time", "particle_steps_per_second", "start",
-                          "end", "state_hash", "provenance"})
+  for (const char* key : {"status", "time", "settings", "counters", "wall_time", "run_particle_steps",
+                          "particle_steps_per_second", "start", "end", "state_hash", "provenance"})
     EXPECT_TRUE(summary.has(key)) << "summary.json lacks '" << key << "'";
   EXPECT_EQ(summary["status"].string, "ok");
   EXPECT_EQ(summary["time"].number, series.rows.back()[0]);
@@ -499,6 +499,7 @@ TEST(Outputs, FilesHaveTheDocumentedShape) {
   EXPECT_EQ(summary["counters"]["particle_steps"].number, series.rows.back()[static_cast<std::size_t>(series.column("particle_steps"))]);
   EXPECT_GT(summary["wall_time"].number, 0);
   EXPECT_GT(summary["particle_steps_per_second"].number, 0);
+  EXPECT_EQ(summary["run_particle_steps"].number, summary["counters"]["particle_steps"].number) << "not resumed";
   EXPECT_EQ(summary["start"]["kinetic_energy"].number, series.at(0, "kinetic_energy"));
   EXPECT_TRUE(std::regex_match(summary["state_hash"].string, std::regex("[0-9a-f]{16}"))) << summary["state_hash"].string;
   const Json& provenance = summary["provenance"];
