@@ -34,8 +34,8 @@ inline constexpr const char* observable_meanings[observable_count] = {
     "translational plus rotational kinetic energy; at the end time",
     "sum over walls of the magnitude of the force of the particles on the wall; at the end time",
     "mean power of the moving walls on the particles since the start (a mill's drive power): wall work / time; at the end time",
-    "share of the energy dissipated by the contact events ended since the start that falls to the smallest size class "
-    "(mill.size_classes; a contact between two classes counts half to each), 0 to 1; at the end time"};
+    ("share of the energy dissipated by the contact events ended since the start that falls to the smallest size "
+     "class (mill.size_classes; a contact between two classes counts half to each), 0 to 1; at the end time")};
 
 /// The collision energy spectrum (a mill's): compared as a whole at the end time.
 inline constexpr const char* spectrum_name = "collision_spectrum";
