@@ -211,6 +211,10 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
         const bool aligned = (tick + ticks) % (2 * ticks_of_level(levels[q], level_min)) == 0;
         decision[q] = decide_level(errors[q], levels[q], level_min, settings.level_max, 2, settings.safety,
                                    settings.tolerance, aligned);
+        // No promotion to the stability cap: there the full trial reaches velocity Verlet's limit, its
+        // error grows much faster than the 2^p a promotion assumes, and most such promotions failed,
+        // each failure redoing the whole island. A member may still reach the cap from above.
+        if (decision[q].level > levels[q] && decision[q].level >= stability[q]) decision[q].level = levels[q];
         failed[q] = !decision[q].accept;
       }
       // A member accepted only because it reached level_min fails while a touching partner is coarser:

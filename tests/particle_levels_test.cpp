@@ -190,7 +190,8 @@ TEST(ParticleLevels, AnApproachingPairIsCappedAtItsOwnContactsLevelAndNoOtherPar
 // loose tolerance. Near rest both trials agree at almost any step, so the error control alone would take
 // the longest step there is (10.24 ms, beyond velocity Verlet's limit 2 sqrt(m / k) = 6.3 ms); the cap
 // keeps the step it is accepted at within sqrt(m / k) = 3.16 ms (level 8, 2.56 ms), its full trial at
-// level 9, and the nudge dies out.
+// level 9, and the nudge dies out. The ball climbs from finer levels, and a promotion stops one level
+// below the cap (there the full trial would reach Verlet's limit), so it is accepted at level 7.
 TEST(ParticleLevels, ABallRestingOnAFloorStepsWithinItsContactsStabilityBound) {
   WorldConfig c = base_config(1e-5);
   c.model.gravity = Vec3(0, 0, -9.81);
@@ -218,7 +219,7 @@ TEST(ParticleLevels, ABallRestingOnAFloorStepsWithinItsContactsStabilityBound) {
   const Real drift = std::abs(world.state().position[0].z() - (radius - rest_overlap));
   std::printf("ball on a floor: highest accepted level %d (cap %d), drift from rest %.3e m\n", highest,
               accepted_cap, drift);
-  EXPECT_EQ(highest, accepted_cap);
+  EXPECT_EQ(highest, accepted_cap - 1);
   EXPECT_LT(drift, 1e-3 * rest_overlap);
 }
 
