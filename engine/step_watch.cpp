@@ -61,10 +61,4 @@ Worst deepest_contact(const State& s, const NeighbourContacts& nb, const WallCon
   return Worst::worse(pair, deepest_wall_contact(s, walls));
 }
 
-Worst longest_step_travel(const State& s, Real h) {
-  return worst_of(s.size(), [&](std::size_t p) {
-    return Worst{s.id[p], s.id[p], h * s.velocity[p].norm() / s.radius[p], 0};
-  });
-}
-
 }  // namespace dem

@@ -28,8 +28,10 @@ Worst deepest_contact(const State& s, const PairContacts& pairs, const WallConta
 /// (NeighbourContacts::row_deepest): one value per particle to reduce instead of one per slot.
 Worst deepest_contact(const State& s, const NeighbourContacts& pairs, const WallContacts& walls);
 
-/// The largest h |v| / R over the particles: how many of its radii a particle's next step of h
-/// carries it at its present velocity.
-Worst longest_step_travel(const State& s, Real h);
+/// How many of its radii particle p's next step of h carries it at its present velocity: h |v| / R.
+/// The fixed Verlet step books the largest over the particles in its closing kick (kick_and_check).
+inline Worst step_travel(const State& s, std::size_t p, Real h) {
+  return Worst{s.id[p], s.id[p], h * s.velocity[p].norm() / s.radius[p], 0};
+}
 
 }  // namespace dem

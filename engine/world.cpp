@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include "engine/checkpoint.h"
@@ -222,6 +223,7 @@ StepStatus World::advance_sync_interval() {
   const bool rotation = kernels_.uses_rotation;
   const int dim = config_.model.dimension;
   bool finite = true;
+  std::optional<Culprit> travel;  // velocity Verlet's, from its closing kick
   arena_->execute([&] {
     if (config_.integrator.method == Method::exact) {
       step_exact(h);
@@ -229,19 +231,21 @@ StepStatus World::advance_sync_interval() {
       walls_.set_time(time());
       evaluate_forces(0, false);  // for outputs: contact list, springs, wall loads
     } else {
-      kick(state_, 0.5 * h, gravity_, rotation, dim);
-      drift(state_, h);
+      kick_drift(state_, 0.5 * h, h, gravity_, rotation, dim);
       ++clock_.interval;
       walls_.set_time(time());
       evaluate_forces(h, false);
       counters_.force_evaluations += state_.size();
-      kick(state_, 0.5 * h, gravity_, rotation, dim);
+      // The closing kick checks the state and measures the next step's travel in the same pass.
+      const KickCheck check = kick_and_check(state_, 0.5 * h, h, gravity_, rotation, dim);
+      finite = check.finite;
+      travel = check.travel;
     }
     // Work of moving walls, with the forces at the end of the step (a rectangle rule: an audit, not
     // the physics).
     if (walls_move_ && config_.integrator.method == Method::verlet) wall_work_ += h * wall_power(walls_, wall_contacts_);
-    finite = state_is_finite();
-    watch_step(h);
+    if (!travel) finite = state_is_finite();
+    watch_step(travel ? &*travel : nullptr);
   });
   const std::uint64_t n = state_.size();
   counters_.sync_intervals += 1;
@@ -339,7 +343,7 @@ World::Culprit World::deepest_overlap() const {
   return c;
 }
 
-void World::watch_step(Real h) {
+void World::watch_step(const Culprit* travel) {
   Culprit deepest = deepest_contact_now();
   // The exact stepper's flows also report the deepest overlap inside the step (a whole impact may
   // fit in one); under doubling the islands pass theirs on in finish_round.
@@ -347,10 +351,10 @@ void World::watch_step(Real h) {
     deepest = Culprit::worse(deepest, exact_work_.deepest);
   deepest.time = time();
   deepest_seen_ = Culprit::worse(deepest_seen_, deepest);
-  if (config_.integrator.method == Method::verlet && config_.integrator.control == Control::fixed) {
-    Culprit travel = longest_step_travel(state_, h);
-    travel.time = time();
-    travel_seen_ = Culprit::worse(travel_seen_, travel);
+  if (travel) {
+    Culprit at = *travel;
+    at.time = time();
+    travel_seen_ = Culprit::worse(travel_seen_, at);
   }
 }
 

@@ -268,7 +268,9 @@ class World {
   bool find_conflicts();
   void finish_round();
   bool state_is_finite() const;
-  void watch_step(Real h);
+  /// Books the deepest contact now and, when given, the next step's longest travel (velocity Verlet
+  /// at a fixed step measures it in its closing kick).
+  void watch_step(const Culprit* travel);
 
   WorldConfig config_;
   int threads_ = 1;

@@ -104,14 +104,14 @@ StepStatus World::advance_doubling_interval() {
       run_round(clock_.tick, level);
       clock_.tick += ticks_of_level(level, scheduler_.level_min());
       // The World's contact lists are the islands' at the round's end (Verlet): watch them there.
-      if (config_.integrator.method == Method::verlet) watch_step(0);
+      if (config_.integrator.method == Method::verlet) watch_step(nullptr);
     }
     clock_.tick = 0;
     ++clock_.interval;
     walls_.set_time(time());
     if (config_.integrator.method == Method::exact) {
       evaluate_forces(0, false);  // for outputs and islands
-      watch_step(0);
+      watch_step(nullptr);
     }
     finite = state_is_finite();
   });
