@@ -7,9 +7,11 @@
 // checks), forces added to both particles at once, then the kick and drift. Candidates are found once
 // outside the timed loop with the engine's grid (skin 2 mm; in 2,000 steps LIGGGHTS rebuilt twice),
 // so neighbour search is left out of the limit. Not deterministic across thread counts and not used
-// by the engine: it is a yardstick. BM_EngineDenseBed times the engine on the same particles and
-// steps, so one run gives the ratio; the kinetic energy after the steps is printed beside both to
-// show they integrate the same bed (chaotic in detail, equal in size).
+// by the engine: it is a yardstick. BM_LimitKernelDenseBedAvx2 runs the same kernel with its pair
+// law four contacts at a time (x86-64 with AVX2; the same bits as the scalar kernel).
+// BM_EngineDenseBed times the engine on the same particles and steps, so one run gives the ratios;
+// the kinetic energy after the steps is printed beside each to show they integrate the same bed
+// (chaotic in detail, equal in size).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -19,6 +21,10 @@
 #include <memory>
 #include <string>
 #include <vector>
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include "bench/harness.h"
 #include "broadphase/grid.h"
@@ -91,12 +97,14 @@ inline Vec3 contact_force(const Vec3& n, Real delta, Real m, const Vec3& u, Vec3
   return f_n * n + f_t;
 }
 
-void compute_forces(Bed& b) {
-  const std::size_t n = b.x.size();
-  for (std::size_t p = 0; p < n; ++p) {
+void start_forces(Bed& b) {
+  for (std::size_t p = 0; p < b.x.size(); ++p) {
     b.f[p] = gravity / b.inv_m[p];
     b.t[p].setZero();
   }
+}
+
+void pair_forces(Bed& b) {
   for (std::size_t k = 0; k < b.pair_i.size(); ++k) {
     const std::uint32_t i = b.pair_i[k], j = b.pair_j[k];
     const Vec3 d = b.x[i] - b.x[j];
@@ -117,7 +125,10 @@ void compute_forces(Bed& b) {
     b.t[i] -= a_i * arm_torque;
     b.t[j] -= a_j * arm_torque;
   }
-  for (std::size_t p = 0; p < n; ++p) {
+}
+
+void wall_forces(Bed& b) {
+  for (std::size_t p = 0; p < b.x.size(); ++p) {
     for (int side = 0; side < 6; ++side) {
       const int axis = side / 2;
       const bool high = side % 2 == 1;
@@ -145,11 +156,199 @@ void kick(Bed& b) {
   }
 }
 
+void compute_forces(Bed& b) {
+  start_forces(b);
+  pair_forces(b);
+  wall_forces(b);
+}
+
 void step(Bed& b) {
   kick(b);
   for (std::size_t p = 0; p < b.x.size(); ++p) b.x[p] += dt * b.v[p];
   compute_forces(b);
   kick(b);
+}
+
+#if defined(__x86_64__)
+// The same kernel with the pair law on AVX2, four contacts at a time: a pass over the candidates
+// finds the touching ones (and clears the springs of the others), then the law runs on four touching
+// pairs per instruction, the same operations in the same order as contact_force, and the forces are
+// added to the particles one contact at a time in candidate order. So the particles' sums, and the
+// state after any number of steps, are those of the scalar kernel bit for bit (checked after the
+// run). The question it answers: what vector units buy on this physics, before the engine is
+// rebuilt around them.
+struct VectorBed {
+  Bed bed;
+  std::vector<Real> spring_x, spring_y, spring_z;  // per candidate pair, by coordinate [m]
+  std::vector<std::uint32_t> touching;            // candidate pairs that overlap this step, ascending
+  std::vector<Real> force_out, torque_arm_out;    // per touching pair: force (3) and n x force (3)
+  std::vector<Real> arm_i_out, arm_j_out;
+};
+
+namespace lanes {
+
+using V = __m256d;
+
+// The masked form with every lane on: the plain one leaves its source undefined, which GCC warns about.
+[[gnu::target("avx2")]] inline V gather(const Real* base, __m128i index) {
+  const V all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+  return _mm256_mask_i32gather_pd(_mm256_setzero_pd(), base, index, all, 8);
+}
+
+// x0^2 + x1^2 + x2^2 summed as Eigen sums a 3-vector's squared norm or dot product.
+[[gnu::target("avx2")]] inline V dot3(V a0, V a1, V a2, V b0, V b1, V b2) {
+  return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a0, b0), _mm256_mul_pd(a1, b1)), _mm256_mul_pd(a2, b2));
+}
+
+}  // namespace lanes
+
+[[gnu::target("avx2")]] void find_touching(VectorBed& vb) {
+  using namespace lanes;
+  Bed& b = vb.bed;
+  const Real* x = b.x[0].data();
+  const std::size_t count = b.pair_i.size();
+  vb.touching.clear();
+  std::size_t k = 0;
+  for (; k + 4 <= count; k += 4) {
+    const __m128i i = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&b.pair_i[k]));
+    const __m128i j = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&b.pair_j[k]));
+    const __m128i i3 = _mm_add_epi32(_mm_add_epi32(i, i), i), j3 = _mm_add_epi32(_mm_add_epi32(j, j), j);
+    const __m128i one = _mm_set1_epi32(1), two = _mm_set1_epi32(2);
+    const V d0 = _mm256_sub_pd(gather(x, i3), gather(x, j3));
+    const V d1 = _mm256_sub_pd(gather(x, _mm_add_epi32(i3, one)), gather(x, _mm_add_epi32(j3, one)));
+    const V d2 = _mm256_sub_pd(gather(x, _mm_add_epi32(i3, two)), gather(x, _mm_add_epi32(j3, two)));
+    const V reach = _mm256_add_pd(gather(b.r.data(), i), gather(b.r.data(), j));
+    const V apart = _mm256_cmp_pd(dot3(d0, d1, d2, d0, d1, d2), _mm256_mul_pd(reach, reach), _CMP_GE_OQ);
+    const __m256i clear = _mm256_castpd_si256(apart);
+    const V zero = _mm256_setzero_pd();
+    _mm256_maskstore_pd(&vb.spring_x[k], clear, zero);
+    _mm256_maskstore_pd(&vb.spring_y[k], clear, zero);
+    _mm256_maskstore_pd(&vb.spring_z[k], clear, zero);
+    for (unsigned mask = ~static_cast<unsigned>(_mm256_movemask_pd(apart)) & 15u; mask; mask &= mask - 1)
+      vb.touching.push_back(static_cast<std::uint32_t>(k + __builtin_ctz(mask)));
+  }
+  for (; k < count; ++k) {
+    const std::uint32_t i = b.pair_i[k], j = b.pair_j[k];
+    const Real reach = b.r[i] + b.r[j];
+    if ((b.x[i] - b.x[j]).squaredNorm() < reach * reach) {
+      vb.touching.push_back(static_cast<std::uint32_t>(k));
+    } else {
+      vb.spring_x[k] = vb.spring_y[k] = vb.spring_z[k] = 0;
+    }
+  }
+}
+
+// contact_force and its pair's geometry for touching[t .. t + 4), written to the *_out arrays.
+[[gnu::target("avx2")]] void four_contacts(VectorBed& vb, std::size_t t) {
+  using namespace lanes;
+  const Bed& b = vb.bed;
+  const __m128i k = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&vb.touching[t]));
+  alignas(16) std::uint32_t pi[4], pj[4], pk[4];
+  _mm_store_si128(reinterpret_cast<__m128i*>(pk), k);
+  for (int l = 0; l < 4; ++l) pi[l] = b.pair_i[pk[l]], pj[l] = b.pair_j[pk[l]];
+  const __m128i i = _mm_load_si128(reinterpret_cast<const __m128i*>(pi));
+  const __m128i j = _mm_load_si128(reinterpret_cast<const __m128i*>(pj));
+  const __m128i i3 = _mm_add_epi32(_mm_add_epi32(i, i), i), j3 = _mm_add_epi32(_mm_add_epi32(j, j), j);
+  const __m128i one = _mm_set1_epi32(1), two = _mm_set1_epi32(2);
+  const __m128i i3y = _mm_add_epi32(i3, one), i3z = _mm_add_epi32(i3, two);
+  const __m128i j3y = _mm_add_epi32(j3, one), j3z = _mm_add_epi32(j3, two);
+  const Real *x = b.x[0].data(), *v = b.v[0].data(), *w = b.w[0].data();
+  const auto add = _mm256_add_pd, sub = _mm256_sub_pd, mul = _mm256_mul_pd, div = _mm256_div_pd;
+  const auto set = _mm256_set1_pd;
+
+  const V d0 = sub(gather(x, i3), gather(x, j3)), d1 = sub(gather(x, i3y), gather(x, j3y)),
+          d2 = sub(gather(x, i3z), gather(x, j3z));
+  const V r_i = gather(b.r.data(), i), r_j = gather(b.r.data(), j);
+  const V reach = add(r_i, r_j);
+  const V dist = _mm256_sqrt_pd(dot3(d0, d1, d2, d0, d1, d2)), delta = sub(reach, dist);
+  const V n0 = div(d0, dist), n1 = div(d1, dist), n2 = div(d2, dist);
+  const V half_delta = mul(set(0.5), delta);
+  const V a_i = sub(r_i, half_delta), a_j = sub(r_j, half_delta);
+  // u = v_i - v_j - (a_i w_i + a_j w_j) x n
+  const V c0 = add(mul(a_i, gather(w, i3)), mul(a_j, gather(w, j3)));
+  const V c1 = add(mul(a_i, gather(w, i3y)), mul(a_j, gather(w, j3y)));
+  const V c2 = add(mul(a_i, gather(w, i3z)), mul(a_j, gather(w, j3z)));
+  const V u0 = sub(sub(gather(v, i3), gather(v, j3)), sub(mul(c1, n2), mul(c2, n1)));
+  const V u1 = sub(sub(gather(v, i3y), gather(v, j3y)), sub(mul(c2, n0), mul(c0, n2)));
+  const V u2 = sub(sub(gather(v, i3z), gather(v, j3z)), sub(mul(c0, n1), mul(c1, n0)));
+  const V m = div(set(1), add(gather(b.inv_m.data(), i), gather(b.inv_m.data(), j)));
+  // contact_force
+  const V u_n = dot3(u0, u1, u2, n0, n1, n2);
+  const V ut0 = sub(u0, mul(u_n, n0)), ut1 = sub(u1, mul(u_n, n1)), ut2 = sub(u2, mul(u_n, n2));
+  const V f_n = sub(mul(set(k_n), delta), mul(mul(set(gamma_n), m), u_n));
+  const V h = set(dt);
+  V s0 = add(gather(vb.spring_x.data(), k), mul(ut0, h));
+  V s1 = add(gather(vb.spring_y.data(), k), mul(ut1, h));
+  V s2 = add(gather(vb.spring_z.data(), k), mul(ut2, h));
+  const V s_n = dot3(s0, s1, s2, n0, n1, n2);
+  s0 = sub(s0, mul(s_n, n0)), s1 = sub(s1, mul(s_n, n1)), s2 = sub(s2, mul(s_n, n2));
+  const V gm = mul(set(gamma_t), m), minus_k = set(-k_t);
+  V ft0 = sub(mul(minus_k, s0), mul(gm, ut0)), ft1 = sub(mul(minus_k, s1), mul(gm, ut1)),
+    ft2 = sub(mul(minus_k, s2), mul(gm, ut2));
+  const V cap = mul(set(friction), _mm256_max_pd(f_n, _mm256_setzero_pd()));
+  const V size = _mm256_sqrt_pd(dot3(ft0, ft1, ft2, ft0, ft1, ft2));
+  const V slide = _mm256_cmp_pd(size, cap, _CMP_GT_OQ);
+  if (_mm256_movemask_pd(slide)) {
+    const V scale = div(cap, size), kt = set(k_t);
+    const V g0 = mul(ft0, scale), g1 = mul(ft1, scale), g2 = mul(ft2, scale);
+    const V zero = _mm256_setzero_pd();
+    s0 = _mm256_blendv_pd(s0, div(sub(zero, add(g0, mul(gm, ut0))), kt), slide);
+    s1 = _mm256_blendv_pd(s1, div(sub(zero, add(g1, mul(gm, ut1))), kt), slide);
+    s2 = _mm256_blendv_pd(s2, div(sub(zero, add(g2, mul(gm, ut2))), kt), slide);
+    ft0 = _mm256_blendv_pd(ft0, g0, slide), ft1 = _mm256_blendv_pd(ft1, g1, slide);
+    ft2 = _mm256_blendv_pd(ft2, g2, slide);
+  }
+  const V f0 = add(mul(f_n, n0), ft0), f1 = add(mul(f_n, n1), ft1), f2 = add(mul(f_n, n2), ft2);
+  alignas(32) Real out[12][4];
+  _mm256_store_pd(out[0], s0), _mm256_store_pd(out[1], s1), _mm256_store_pd(out[2], s2);
+  _mm256_store_pd(out[3], f0), _mm256_store_pd(out[4], f1), _mm256_store_pd(out[5], f2);
+  _mm256_store_pd(out[6], sub(mul(n1, f2), mul(n2, f1)));
+  _mm256_store_pd(out[7], sub(mul(n2, f0), mul(n0, f2)));
+  _mm256_store_pd(out[8], sub(mul(n0, f1), mul(n1, f0)));
+  _mm256_store_pd(out[9], a_i), _mm256_store_pd(out[10], a_j);
+  for (int l = 0; l < 4; ++l) {
+    vb.spring_x[pk[l]] = out[0][l], vb.spring_y[pk[l]] = out[1][l], vb.spring_z[pk[l]] = out[2][l];
+    for (int c = 0; c < 3; ++c) {
+      vb.force_out[3 * (t + l) + c] = out[3 + c][l];
+      vb.torque_arm_out[3 * (t + l) + c] = out[6 + c][l];
+    }
+    vb.arm_i_out[t + l] = out[9][l], vb.arm_j_out[t + l] = out[10][l];
+  }
+}
+
+void vector_pair_forces(VectorBed& vb) {
+  Bed& b = vb.bed;
+  find_touching(vb);
+  const std::size_t count = vb.touching.size();
+  vb.force_out.resize(3 * count);
+  vb.torque_arm_out.resize(3 * count);
+  vb.arm_i_out.resize(count);
+  vb.arm_j_out.resize(count);
+  std::size_t t = 0;
+  for (; t + 4 <= count; t += 4) four_contacts(vb, t);
+  for (; t < count; ++t) {  // the last few through the scalar law
+    const std::uint32_t k = vb.touching[t], i = b.pair_i[k], j = b.pair_j[k];
+    const Vec3 d = b.x[i] - b.x[j];
+    const Real dist = std::sqrt(d.squaredNorm()), delta = b.r[i] + b.r[j] - dist;
+    const Vec3 normal = d / dist;
+    const Real a_i = b.r[i] - 0.5 * delta, a_j = b.r[j] - 0.5 * delta;
+    const Vec3 u = b.v[i] - b.v[j] - (a_i * b.w[i] + a_j * b.w[j]).cross(normal);
+    Vec3 spring(vb.spring_x[k], vb.spring_y[k], vb.spring_z[k]);
+    const Vec3 force = contact_force(normal, delta, 1 / (b.inv_m[i] + b.inv_m[j]), u, spring);
+    vb.spring_x[k] = spring.x(), vb.spring_y[k] = spring.y(), vb.spring_z[k] = spring.z();
+    const Vec3 arm_torque = normal.cross(force);
+    for (int c = 0; c < 3; ++c) vb.force_out[3 * t + c] = force[c], vb.torque_arm_out[3 * t + c] = arm_torque[c];
+    vb.arm_i_out[t] = a_i, vb.arm_j_out[t] = a_j;
+  }
+  for (t = 0; t < count; ++t) {
+    const std::uint32_t k = vb.touching[t], i = b.pair_i[k], j = b.pair_j[k];
+    const Vec3 force(vb.force_out[3 * t], vb.force_out[3 * t + 1], vb.force_out[3 * t + 2]);
+    const Vec3 arm_torque(vb.torque_arm_out[3 * t], vb.torque_arm_out[3 * t + 1], vb.torque_arm_out[3 * t + 2]);
+    b.f[i] += force;
+    b.f[j] -= force;
+    b.t[i] -= vb.arm_i_out[t] * arm_torque;
+    b.t[j] -= vb.arm_j_out[t] * arm_torque;
+  }
 }
 
 constexpr int steps_per_iteration = 100;
@@ -172,6 +371,43 @@ void BM_LimitKernelDenseBed(benchmark::State& bench) {
   if (moved > 0.5 * skin) bench.SkipWithError("a particle moved more than skin/2: the candidate list is stale");
   bench.counters["max_displacement_m"] = moved;
 }
+
+void vector_step(VectorBed& vb) {
+  Bed& b = vb.bed;
+  kick(b);
+  for (std::size_t p = 0; p < b.x.size(); ++p) b.x[p] += dt * b.v[p];
+  start_forces(b);
+  vector_pair_forces(vb);
+  wall_forces(b);
+  kick(b);
+}
+
+void BM_LimitKernelDenseBedAvx2(benchmark::State& bench) {
+  const std::unique_ptr<dem::World> world = dense_bed(1);
+  VectorBed vb{bed_from(*world), {}, {}, {}, {}, {}, {}, {}, {}};
+  const std::size_t candidates = vb.bed.pair_i.size();
+  vb.spring_x.assign(candidates, 0), vb.spring_y.assign(candidates, 0), vb.spring_z.assign(candidates, 0);
+  Bed scalar = vb.bed;  // the scalar kernel from the same start, for the bitwise check
+  compute_forces(scalar);
+  start_forces(vb.bed), vector_pair_forces(vb), wall_forces(vb.bed);
+  const int steps = dem::bench::iterations(steps_per_iteration);
+  for (auto _ : bench)
+    for (int s = 0; s < steps; ++s) vector_step(vb);
+  const double particle_steps = static_cast<double>(bench.iterations()) * steps * vb.bed.x.size();
+  bench.counters["particle_steps_per_s"] = benchmark::Counter(particle_steps, benchmark::Counter::kIsRate);
+  bench.counters["kinetic_energy_J"] = vb.bed.kinetic_energy();
+  for (std::int64_t s = 0; s < bench.iterations() * steps; ++s) step(scalar);
+  if (scalar.x != vb.bed.x || scalar.v != vb.bed.v || scalar.w != vb.bed.w)
+    bench.SkipWithError("the AVX2 kernel's state differs from the scalar kernel's");
+}
+
+// Registered only where the processor has AVX2.
+const bool avx2_kernel_registered = __builtin_cpu_supports("avx2") &&
+                                    benchmark::RegisterBenchmark("BM_LimitKernelDenseBedAvx2", BM_LimitKernelDenseBedAvx2)
+                                        ->Iterations(dem::bench::iterations(5))
+                                        ->UseRealTime()
+                                        ->Unit(benchmark::kMillisecond);
+#endif
 
 void BM_EngineDenseBed(benchmark::State& bench) {
   const int threads = static_cast<int>(bench.range(0));
