@@ -8,7 +8,7 @@
 // outside the timed loop with the engine's grid (skin 2 mm; in 2,000 steps LIGGGHTS rebuilt twice),
 // so neighbour search is left out of the limit. Not deterministic across thread counts and not used
 // by the engine: it is a yardstick. BM_LimitKernelDenseBedAvx2 runs the same kernel with its pair
-// law four contacts at a time (x86-64 with AVX2; the same bits as the scalar kernel).
+// law four pairs at a time (x86-64 with AVX2; the same bits as the scalar kernel).
 // BM_EngineDenseBed times the engine on the same particles and steps, so one run gives the ratios;
 // the kinetic energy after the steps is printed beside each to show they integrate the same bed
 // (chaotic in detail, equal in size).
@@ -170,13 +170,16 @@ void step(Bed& b) {
 }
 
 #if defined(__x86_64__)
-// The same kernel with the pair law on AVX2, four contacts at a time: a pass over the candidates
-// finds the touching ones (and clears the springs of the others), then the law runs on four touching
-// pairs per instruction, the same operations in the same order as contact_force, and the forces are
-// added to the particles one contact at a time in candidate order. So the particles' sums, and the
-// state after any number of steps, are those of the scalar kernel bit for bit (checked after the
-// run). The question it answers: what vector units buy on this physics, before the engine is
-// rebuilt around them.
+// The same kernel with the pair law on AVX2, four pairs at a time, the same operations in the same
+// order as contact_force, in two forms (the benchmark's argument):
+//   0  filtered: a pass over the candidates finds the touching ones (and clears the springs of the
+//      others), the law runs on four touching pairs at once, and the forces are then added to the
+//      particles one contact at a time in candidate order;
+//   1  unfiltered: the law runs on four consecutive candidates at once, touching or not, and only the
+//      touching ones' forces are added, in candidate order.
+// Either way the particles' sums, and the state after any number of steps, are those of the scalar
+// kernel bit for bit (checked after the run). The question it answers: what vector units buy on this
+// physics, before the engine is rebuilt around them.
 struct VectorBed {
   Bed bed;
   std::vector<Real> spring_x, spring_y, spring_z;  // per candidate pair, by coordinate [m]
@@ -239,15 +242,14 @@ using V = __m256d;
 }
 
 // contact_force and its pair's geometry for touching[t .. t + 4), written to the *_out arrays.
-[[gnu::target("avx2")]] void four_contacts(VectorBed& vb, std::size_t t) {
+// contact_force for four pairs (i, j) with their springs s, as the scalar kernel computes it, lane by
+// lane. Lanes whose pair does not touch compute numbers nobody reads.
+struct FourContacts {
+  lanes::V spring[3], force[3], arm_torque[3], arm_i, arm_j;
+};
+
+[[gnu::target("avx2"), gnu::always_inline]] inline FourContacts four_contacts(const Bed& b, __m128i i, __m128i j, const lanes::V (&spring)[3]) {
   using namespace lanes;
-  const Bed& b = vb.bed;
-  const __m128i k = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&vb.touching[t]));
-  alignas(16) std::uint32_t pi[4], pj[4], pk[4];
-  _mm_store_si128(reinterpret_cast<__m128i*>(pk), k);
-  for (int l = 0; l < 4; ++l) pi[l] = b.pair_i[pk[l]], pj[l] = b.pair_j[pk[l]];
-  const __m128i i = _mm_load_si128(reinterpret_cast<const __m128i*>(pi));
-  const __m128i j = _mm_load_si128(reinterpret_cast<const __m128i*>(pj));
   const __m128i i3 = _mm_add_epi32(_mm_add_epi32(i, i), i), j3 = _mm_add_epi32(_mm_add_epi32(j, j), j);
   const __m128i one = _mm_set1_epi32(1), two = _mm_set1_epi32(2);
   const __m128i i3y = _mm_add_epi32(i3, one), i3z = _mm_add_epi32(i3, two);
@@ -277,9 +279,7 @@ using V = __m256d;
   const V ut0 = sub(u0, mul(u_n, n0)), ut1 = sub(u1, mul(u_n, n1)), ut2 = sub(u2, mul(u_n, n2));
   const V f_n = sub(mul(set(k_n), delta), mul(mul(set(gamma_n), m), u_n));
   const V h = set(dt);
-  V s0 = add(gather(vb.spring_x.data(), k), mul(ut0, h));
-  V s1 = add(gather(vb.spring_y.data(), k), mul(ut1, h));
-  V s2 = add(gather(vb.spring_z.data(), k), mul(ut2, h));
+  V s0 = add(spring[0], mul(ut0, h)), s1 = add(spring[1], mul(ut1, h)), s2 = add(spring[2], mul(ut2, h));
   const V s_n = dot3(s0, s1, s2, n0, n1, n2);
   s0 = sub(s0, mul(s_n, n0)), s1 = sub(s1, mul(s_n, n1)), s2 = sub(s2, mul(s_n, n2));
   const V gm = mul(set(gamma_t), m), minus_k = set(-k_t);
@@ -299,20 +299,116 @@ using V = __m256d;
     ft2 = _mm256_blendv_pd(ft2, g2, slide);
   }
   const V f0 = add(mul(f_n, n0), ft0), f1 = add(mul(f_n, n1), ft1), f2 = add(mul(f_n, n2), ft2);
-  alignas(32) Real out[12][4];
-  _mm256_store_pd(out[0], s0), _mm256_store_pd(out[1], s1), _mm256_store_pd(out[2], s2);
-  _mm256_store_pd(out[3], f0), _mm256_store_pd(out[4], f1), _mm256_store_pd(out[5], f2);
-  _mm256_store_pd(out[6], sub(mul(n1, f2), mul(n2, f1)));
-  _mm256_store_pd(out[7], sub(mul(n2, f0), mul(n0, f2)));
-  _mm256_store_pd(out[8], sub(mul(n0, f1), mul(n1, f0)));
-  _mm256_store_pd(out[9], a_i), _mm256_store_pd(out[10], a_j);
+  return FourContacts{{s0, s1, s2},
+                      {f0, f1, f2},
+                      {sub(mul(n1, f2), mul(n2, f1)), sub(mul(n2, f0), mul(n0, f2)), sub(mul(n0, f1), mul(n1, f0))},
+                      a_i,
+                      a_j};
+}
+
+// The lanes of a FourContacts as plain numbers.
+struct FourOut {
+  alignas(32) Real spring[3][4], force[3][4], arm_torque[3][4], arm_i[4], arm_j[4];
+};
+
+[[gnu::target("avx2"), gnu::always_inline]] inline void store(const FourContacts& c, FourOut& out) {
+  for (int a = 0; a < 3; ++a) {
+    _mm256_store_pd(out.spring[a], c.spring[a]);
+    _mm256_store_pd(out.force[a], c.force[a]);
+    _mm256_store_pd(out.arm_torque[a], c.arm_torque[a]);
+  }
+  _mm256_store_pd(out.arm_i, c.arm_i);
+  _mm256_store_pd(out.arm_j, c.arm_j);
+}
+
+// The touching pairs touching[t .. t + 4): springs updated, forces written to the *_out arrays.
+[[gnu::target("avx2")]] void four_touching(VectorBed& vb, std::size_t t) {
+  using namespace lanes;
+  const Bed& b = vb.bed;
+  alignas(16) std::uint32_t pi[4], pj[4];
+  const std::uint32_t* pk = &vb.touching[t];
+  for (int l = 0; l < 4; ++l) pi[l] = b.pair_i[pk[l]], pj[l] = b.pair_j[pk[l]];
+  const __m128i k = _mm_loadu_si128(reinterpret_cast<const __m128i*>(pk));
+  const V spring[3] = {gather(vb.spring_x.data(), k), gather(vb.spring_y.data(), k), gather(vb.spring_z.data(), k)};
+  FourOut out;
+  store(four_contacts(b, _mm_load_si128(reinterpret_cast<const __m128i*>(pi)),
+                      _mm_load_si128(reinterpret_cast<const __m128i*>(pj)), spring),
+        out);
   for (int l = 0; l < 4; ++l) {
-    vb.spring_x[pk[l]] = out[0][l], vb.spring_y[pk[l]] = out[1][l], vb.spring_z[pk[l]] = out[2][l];
-    for (int c = 0; c < 3; ++c) {
-      vb.force_out[3 * (t + l) + c] = out[3 + c][l];
-      vb.torque_arm_out[3 * (t + l) + c] = out[6 + c][l];
+    vb.spring_x[pk[l]] = out.spring[0][l], vb.spring_y[pk[l]] = out.spring[1][l], vb.spring_z[pk[l]] = out.spring[2][l];
+    for (int a = 0; a < 3; ++a) {
+      vb.force_out[3 * (t + l) + a] = out.force[a][l];
+      vb.torque_arm_out[3 * (t + l) + a] = out.arm_torque[a][l];
     }
-    vb.arm_i_out[t + l] = out[9][l], vb.arm_j_out[t + l] = out[10][l];
+    vb.arm_i_out[t + l] = out.arm_i[l], vb.arm_j_out[t + l] = out.arm_j[l];
+  }
+}
+
+// The candidates k0 .. k0 + 4, contiguous: the law on all four, the touching ones' forces added to
+// their particles in candidate order, the others' springs cleared.
+[[gnu::target("avx2")]] void four_candidates(VectorBed& vb, std::size_t k0) {
+  using namespace lanes;
+  Bed& b = vb.bed;
+  const __m128i i = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&b.pair_i[k0]));
+  const __m128i j = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&b.pair_j[k0]));
+  // The scalar kernel's test, dist^2 < (r_i + r_j)^2, on the same numbers.
+  const Real* x = b.x[0].data();
+  const __m128i i3 = _mm_add_epi32(_mm_add_epi32(i, i), i), j3 = _mm_add_epi32(_mm_add_epi32(j, j), j);
+  const __m128i one = _mm_set1_epi32(1), two = _mm_set1_epi32(2);
+  const V d0 = _mm256_sub_pd(gather(x, i3), gather(x, j3));
+  const V d1 = _mm256_sub_pd(gather(x, _mm_add_epi32(i3, one)), gather(x, _mm_add_epi32(j3, one)));
+  const V d2 = _mm256_sub_pd(gather(x, _mm_add_epi32(i3, two)), gather(x, _mm_add_epi32(j3, two)));
+  const V reach = _mm256_add_pd(gather(b.r.data(), i), gather(b.r.data(), j));
+  const V touch = _mm256_cmp_pd(dot3(d0, d1, d2, d0, d1, d2), _mm256_mul_pd(reach, reach), _CMP_LT_OQ);
+  const int touching = _mm256_movemask_pd(touch);
+  const V spring[3] = {_mm256_loadu_pd(&vb.spring_x[k0]), _mm256_loadu_pd(&vb.spring_y[k0]),
+                       _mm256_loadu_pd(&vb.spring_z[k0])};
+  const FourContacts c = four_contacts(b, i, j, spring);
+  _mm256_storeu_pd(&vb.spring_x[k0], _mm256_and_pd(c.spring[0], touch));
+  _mm256_storeu_pd(&vb.spring_y[k0], _mm256_and_pd(c.spring[1], touch));
+  _mm256_storeu_pd(&vb.spring_z[k0], _mm256_and_pd(c.spring[2], touch));
+  if (!touching) return;
+  FourOut out;
+  store(c, out);
+  for (int l = 0; l < 4; ++l) {
+    if (!(touching >> l & 1)) continue;
+    const std::uint32_t pi = b.pair_i[k0 + l], pj = b.pair_j[k0 + l];
+    const Vec3 force(out.force[0][l], out.force[1][l], out.force[2][l]);
+    const Vec3 arm_torque(out.arm_torque[0][l], out.arm_torque[1][l], out.arm_torque[2][l]);
+    b.f[pi] += force;
+    b.f[pj] -= force;
+    b.t[pi] -= out.arm_i[l] * arm_torque;
+    b.t[pj] -= out.arm_j[l] * arm_torque;
+  }
+}
+
+// The variant without the touching pass: four candidates at a time, contiguous, the law on all four
+// and its results kept for the touching ones only.
+void unfiltered_pair_forces(VectorBed& vb) {
+  Bed& b = vb.bed;
+  const std::size_t count = b.pair_i.size();
+  std::size_t k = 0;
+  for (; k + 4 <= count; k += 4) four_candidates(vb, k);
+  for (; k < count; ++k) {
+    const std::uint32_t i = b.pair_i[k], j = b.pair_j[k];
+    const Vec3 d = b.x[i] - b.x[j];
+    const Real reach = b.r[i] + b.r[j], dist2 = d.squaredNorm();
+    if (dist2 >= reach * reach) {
+      vb.spring_x[k] = vb.spring_y[k] = vb.spring_z[k] = 0;
+      continue;
+    }
+    const Real dist = std::sqrt(dist2), delta = reach - dist;
+    const Vec3 normal = d / dist;
+    const Real a_i = b.r[i] - 0.5 * delta, a_j = b.r[j] - 0.5 * delta;
+    const Vec3 u = b.v[i] - b.v[j] - (a_i * b.w[i] + a_j * b.w[j]).cross(normal);
+    Vec3 spring(vb.spring_x[k], vb.spring_y[k], vb.spring_z[k]);
+    const Vec3 force = contact_force(normal, delta, 1 / (b.inv_m[i] + b.inv_m[j]), u, spring);
+    vb.spring_x[k] = spring.x(), vb.spring_y[k] = spring.y(), vb.spring_z[k] = spring.z();
+    const Vec3 arm_torque = normal.cross(force);
+    b.f[i] += force;
+    b.f[j] -= force;
+    b.t[i] -= a_i * arm_torque;
+    b.t[j] -= a_j * arm_torque;
   }
 }
 
@@ -325,7 +421,7 @@ void vector_pair_forces(VectorBed& vb) {
   vb.arm_i_out.resize(count);
   vb.arm_j_out.resize(count);
   std::size_t t = 0;
-  for (; t + 4 <= count; t += 4) four_contacts(vb, t);
+  for (; t + 4 <= count; t += 4) four_touching(vb, t);
   for (; t < count; ++t) {  // the last few through the scalar law
     const std::uint32_t k = vb.touching[t], i = b.pair_i[k], j = b.pair_j[k];
     const Vec3 d = b.x[i] - b.x[j];
@@ -372,27 +468,31 @@ void BM_LimitKernelDenseBed(benchmark::State& bench) {
   bench.counters["max_displacement_m"] = moved;
 }
 
-void vector_step(VectorBed& vb) {
+void vector_step(VectorBed& vb, bool filtered) {
   Bed& b = vb.bed;
   kick(b);
   for (std::size_t p = 0; p < b.x.size(); ++p) b.x[p] += dt * b.v[p];
   start_forces(b);
-  vector_pair_forces(vb);
+  if (filtered)
+    vector_pair_forces(vb);
+  else
+    unfiltered_pair_forces(vb);
   wall_forces(b);
   kick(b);
 }
 
 void BM_LimitKernelDenseBedAvx2(benchmark::State& bench) {
+  const bool filtered = bench.range(0) == 0;
   const std::unique_ptr<dem::World> world = dense_bed(1);
   VectorBed vb{bed_from(*world), {}, {}, {}, {}, {}, {}, {}, {}};
   const std::size_t candidates = vb.bed.pair_i.size();
   vb.spring_x.assign(candidates, 0), vb.spring_y.assign(candidates, 0), vb.spring_z.assign(candidates, 0);
   Bed scalar = vb.bed;  // the scalar kernel from the same start, for the bitwise check
   compute_forces(scalar);
-  start_forces(vb.bed), vector_pair_forces(vb), wall_forces(vb.bed);
+  start_forces(vb.bed), vector_pair_forces(vb), wall_forces(vb.bed);  // the same start forces either way
   const int steps = dem::bench::iterations(steps_per_iteration);
   for (auto _ : bench)
-    for (int s = 0; s < steps; ++s) vector_step(vb);
+    for (int s = 0; s < steps; ++s) vector_step(vb, filtered);
   const double particle_steps = static_cast<double>(bench.iterations()) * steps * vb.bed.x.size();
   bench.counters["particle_steps_per_s"] = benchmark::Counter(particle_steps, benchmark::Counter::kIsRate);
   bench.counters["kinetic_energy_J"] = vb.bed.kinetic_energy();
@@ -404,6 +504,8 @@ void BM_LimitKernelDenseBedAvx2(benchmark::State& bench) {
 // Registered only where the processor has AVX2.
 const bool avx2_kernel_registered = __builtin_cpu_supports("avx2") &&
                                     benchmark::RegisterBenchmark("BM_LimitKernelDenseBedAvx2", BM_LimitKernelDenseBedAvx2)
+                                        ->Arg(0)
+                                        ->Arg(1)
                                         ->Iterations(dem::bench::iterations(5))
                                         ->UseRealTime()
                                         ->Unit(benchmark::kMillisecond);
