@@ -104,26 +104,45 @@ void start_forces(Bed& b) {
   }
 }
 
+// A touching pair's contact (i, j): its force on i, n x force (the torque on i is -a_i n x F, on j
+// -a_j n x F) and the two lever arms; updates the spring.
+struct PairContact {
+  Vec3 force, arm_torque;
+  Real a_i, a_j;
+};
+
+PairContact pair_contact(const Bed& b, std::uint32_t i, std::uint32_t j, Real dist2, Vec3& spring) {
+  const Real dist = std::sqrt(dist2), delta = b.r[i] + b.r[j] - dist;
+  const Vec3 normal = (b.x[i] - b.x[j]) / dist;
+  const Real a_i = b.r[i] - 0.5 * delta, a_j = b.r[j] - 0.5 * delta;
+  const Vec3 u = b.v[i] - b.v[j] - (a_i * b.w[i] + a_j * b.w[j]).cross(normal);
+  const Real m = 1 / (b.inv_m[i] + b.inv_m[j]);
+  const Vec3 force = contact_force(normal, delta, m, u, spring);
+  return {force, normal.cross(force), a_i, a_j};
+}
+
+void add_contact(Bed& b, std::uint32_t i, std::uint32_t j, const PairContact& c) {
+  b.f[i] += c.force;
+  b.f[j] -= c.force;
+  b.t[i] -= c.a_i * c.arm_torque;
+  b.t[j] -= c.a_j * c.arm_torque;
+}
+
+// The squared distance of pair (i, j) when it touches, else a negative number.
+Real touching_dist2(const Bed& b, std::uint32_t i, std::uint32_t j) {
+  const Real reach = b.r[i] + b.r[j], dist2 = (b.x[i] - b.x[j]).squaredNorm();
+  return dist2 < reach * reach ? dist2 : -1;
+}
+
 void pair_forces(Bed& b) {
   for (std::size_t k = 0; k < b.pair_i.size(); ++k) {
     const std::uint32_t i = b.pair_i[k], j = b.pair_j[k];
-    const Vec3 d = b.x[i] - b.x[j];
-    const Real reach = b.r[i] + b.r[j], dist2 = d.squaredNorm();
-    if (dist2 >= reach * reach) {
+    const Real dist2 = touching_dist2(b, i, j);
+    if (dist2 < 0) {
       b.pair_spring[k].setZero();
       continue;
     }
-    const Real dist = std::sqrt(dist2), delta = reach - dist;
-    const Vec3 normal = d / dist;
-    const Real a_i = b.r[i] - 0.5 * delta, a_j = b.r[j] - 0.5 * delta;
-    const Vec3 u = b.v[i] - b.v[j] - (a_i * b.w[i] + a_j * b.w[j]).cross(normal);
-    const Real m = 1 / (b.inv_m[i] + b.inv_m[j]);
-    const Vec3 force = contact_force(normal, delta, m, u, b.pair_spring[k]);
-    b.f[i] += force;
-    b.f[j] -= force;
-    const Vec3 arm_torque = normal.cross(force);  // torque on i is -a_i n x F, on j -a_j n x F
-    b.t[i] -= a_i * arm_torque;
-    b.t[j] -= a_j * arm_torque;
+    add_contact(b, i, j, pair_contact(b, i, j, dist2, b.pair_spring[k]));
   }
 }
 
@@ -372,13 +391,10 @@ struct FourOut {
   store(c, out);
   for (int l = 0; l < 4; ++l) {
     if (!(touching >> l & 1)) continue;
-    const std::uint32_t pi = b.pair_i[k0 + l], pj = b.pair_j[k0 + l];
-    const Vec3 force(out.force[0][l], out.force[1][l], out.force[2][l]);
-    const Vec3 arm_torque(out.arm_torque[0][l], out.arm_torque[1][l], out.arm_torque[2][l]);
-    b.f[pi] += force;
-    b.f[pj] -= force;
-    b.t[pi] -= out.arm_i[l] * arm_torque;
-    b.t[pj] -= out.arm_j[l] * arm_torque;
+    const PairContact contact{Vec3(out.force[0][l], out.force[1][l], out.force[2][l]),
+                              Vec3(out.arm_torque[0][l], out.arm_torque[1][l], out.arm_torque[2][l]), out.arm_i[l],
+                              out.arm_j[l]};
+    add_contact(b, b.pair_i[k0 + l], b.pair_j[k0 + l], contact);
   }
 }
 
@@ -391,24 +407,13 @@ void unfiltered_pair_forces(VectorBed& vb) {
   for (; k + 4 <= count; k += 4) four_candidates(vb, k);
   for (; k < count; ++k) {
     const std::uint32_t i = b.pair_i[k], j = b.pair_j[k];
-    const Vec3 d = b.x[i] - b.x[j];
-    const Real reach = b.r[i] + b.r[j], dist2 = d.squaredNorm();
-    if (dist2 >= reach * reach) {
-      vb.spring_x[k] = vb.spring_y[k] = vb.spring_z[k] = 0;
-      continue;
+    const Real dist2 = touching_dist2(b, i, j);
+    Vec3 spring = Vec3::Zero();
+    if (dist2 >= 0) {
+      spring = Vec3(vb.spring_x[k], vb.spring_y[k], vb.spring_z[k]);
+      add_contact(b, i, j, pair_contact(b, i, j, dist2, spring));
     }
-    const Real dist = std::sqrt(dist2), delta = reach - dist;
-    const Vec3 normal = d / dist;
-    const Real a_i = b.r[i] - 0.5 * delta, a_j = b.r[j] - 0.5 * delta;
-    const Vec3 u = b.v[i] - b.v[j] - (a_i * b.w[i] + a_j * b.w[j]).cross(normal);
-    Vec3 spring(vb.spring_x[k], vb.spring_y[k], vb.spring_z[k]);
-    const Vec3 force = contact_force(normal, delta, 1 / (b.inv_m[i] + b.inv_m[j]), u, spring);
     vb.spring_x[k] = spring.x(), vb.spring_y[k] = spring.y(), vb.spring_z[k] = spring.z();
-    const Vec3 arm_torque = normal.cross(force);
-    b.f[i] += force;
-    b.f[j] -= force;
-    b.t[i] -= a_i * arm_torque;
-    b.t[j] -= a_j * arm_torque;
   }
 }
 
@@ -424,26 +429,18 @@ void vector_pair_forces(VectorBed& vb) {
   for (; t + 4 <= count; t += 4) four_touching(vb, t);
   for (; t < count; ++t) {  // the last few through the scalar law
     const std::uint32_t k = vb.touching[t], i = b.pair_i[k], j = b.pair_j[k];
-    const Vec3 d = b.x[i] - b.x[j];
-    const Real dist = std::sqrt(d.squaredNorm()), delta = b.r[i] + b.r[j] - dist;
-    const Vec3 normal = d / dist;
-    const Real a_i = b.r[i] - 0.5 * delta, a_j = b.r[j] - 0.5 * delta;
-    const Vec3 u = b.v[i] - b.v[j] - (a_i * b.w[i] + a_j * b.w[j]).cross(normal);
     Vec3 spring(vb.spring_x[k], vb.spring_y[k], vb.spring_z[k]);
-    const Vec3 force = contact_force(normal, delta, 1 / (b.inv_m[i] + b.inv_m[j]), u, spring);
+    const PairContact c = pair_contact(b, i, j, (b.x[i] - b.x[j]).squaredNorm(), spring);
     vb.spring_x[k] = spring.x(), vb.spring_y[k] = spring.y(), vb.spring_z[k] = spring.z();
-    const Vec3 arm_torque = normal.cross(force);
-    for (int c = 0; c < 3; ++c) vb.force_out[3 * t + c] = force[c], vb.torque_arm_out[3 * t + c] = arm_torque[c];
-    vb.arm_i_out[t] = a_i, vb.arm_j_out[t] = a_j;
+    for (int a = 0; a < 3; ++a) vb.force_out[3 * t + a] = c.force[a], vb.torque_arm_out[3 * t + a] = c.arm_torque[a];
+    vb.arm_i_out[t] = c.a_i, vb.arm_j_out[t] = c.a_j;
   }
   for (t = 0; t < count; ++t) {
-    const std::uint32_t k = vb.touching[t], i = b.pair_i[k], j = b.pair_j[k];
-    const Vec3 force(vb.force_out[3 * t], vb.force_out[3 * t + 1], vb.force_out[3 * t + 2]);
-    const Vec3 arm_torque(vb.torque_arm_out[3 * t], vb.torque_arm_out[3 * t + 1], vb.torque_arm_out[3 * t + 2]);
-    b.f[i] += force;
-    b.f[j] -= force;
-    b.t[i] -= vb.arm_i_out[t] * arm_torque;
-    b.t[j] -= vb.arm_j_out[t] * arm_torque;
+    const std::uint32_t k = vb.touching[t];
+    const PairContact c{Vec3(vb.force_out[3 * t], vb.force_out[3 * t + 1], vb.force_out[3 * t + 2]),
+                        Vec3(vb.torque_arm_out[3 * t], vb.torque_arm_out[3 * t + 1], vb.torque_arm_out[3 * t + 2]),
+                        vb.arm_i_out[t], vb.arm_j_out[t]};
+    add_contact(b, b.pair_i[k], b.pair_j[k], c);
   }
 }
 
