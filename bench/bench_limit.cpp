@@ -222,31 +222,36 @@ using V = __m256d;
   return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(a0, b0), _mm256_mul_pd(a1, b1)), _mm256_mul_pd(a2, b2));
 }
 
+// The lanes whose pair (i, j) touches: the scalar kernel's test, dist^2 < (r_i + r_j)^2, on the same numbers.
+[[gnu::target("avx2")]] inline V touching_lanes(const Bed& b, __m128i i, __m128i j) {
+  const Real* x = b.x[0].data();
+  const __m128i i3 = _mm_add_epi32(_mm_add_epi32(i, i), i), j3 = _mm_add_epi32(_mm_add_epi32(j, j), j);
+  const __m128i one = _mm_set1_epi32(1), two = _mm_set1_epi32(2);
+  const V d0 = _mm256_sub_pd(gather(x, i3), gather(x, j3));
+  const V d1 = _mm256_sub_pd(gather(x, _mm_add_epi32(i3, one)), gather(x, _mm_add_epi32(j3, one)));
+  const V d2 = _mm256_sub_pd(gather(x, _mm_add_epi32(i3, two)), gather(x, _mm_add_epi32(j3, two)));
+  const V reach = _mm256_add_pd(gather(b.r.data(), i), gather(b.r.data(), j));
+  return _mm256_cmp_pd(dot3(d0, d1, d2, d0, d1, d2), _mm256_mul_pd(reach, reach), _CMP_LT_OQ);
+}
+
 }  // namespace lanes
 
 [[gnu::target("avx2")]] void find_touching(VectorBed& vb) {
   using namespace lanes;
   Bed& b = vb.bed;
-  const Real* x = b.x[0].data();
   const std::size_t count = b.pair_i.size();
   vb.touching.clear();
   std::size_t k = 0;
   for (; k + 4 <= count; k += 4) {
     const __m128i i = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&b.pair_i[k]));
     const __m128i j = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&b.pair_j[k]));
-    const __m128i i3 = _mm_add_epi32(_mm_add_epi32(i, i), i), j3 = _mm_add_epi32(_mm_add_epi32(j, j), j);
-    const __m128i one = _mm_set1_epi32(1), two = _mm_set1_epi32(2);
-    const V d0 = _mm256_sub_pd(gather(x, i3), gather(x, j3));
-    const V d1 = _mm256_sub_pd(gather(x, _mm_add_epi32(i3, one)), gather(x, _mm_add_epi32(j3, one)));
-    const V d2 = _mm256_sub_pd(gather(x, _mm_add_epi32(i3, two)), gather(x, _mm_add_epi32(j3, two)));
-    const V reach = _mm256_add_pd(gather(b.r.data(), i), gather(b.r.data(), j));
-    const V apart = _mm256_cmp_pd(dot3(d0, d1, d2, d0, d1, d2), _mm256_mul_pd(reach, reach), _CMP_GE_OQ);
-    const __m256i clear = _mm256_castpd_si256(apart);
+    const V touch = touching_lanes(b, i, j);
+    const __m256i clear = _mm256_xor_si256(_mm256_castpd_si256(touch), _mm256_set1_epi64x(-1));
     const V zero = _mm256_setzero_pd();
     _mm256_maskstore_pd(&vb.spring_x[k], clear, zero);
     _mm256_maskstore_pd(&vb.spring_y[k], clear, zero);
     _mm256_maskstore_pd(&vb.spring_z[k], clear, zero);
-    for (unsigned mask = ~static_cast<unsigned>(_mm256_movemask_pd(apart)) & 15u; mask; mask &= mask - 1)
+    for (unsigned mask = static_cast<unsigned>(_mm256_movemask_pd(touch)); mask; mask &= mask - 1)
       vb.touching.push_back(static_cast<std::uint32_t>(k + __builtin_ctz(mask)));
   }
   for (; k < count; ++k) {
@@ -370,15 +375,7 @@ struct FourOut {
   Bed& b = vb.bed;
   const __m128i i = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&b.pair_i[k0]));
   const __m128i j = _mm_loadu_si128(reinterpret_cast<const __m128i*>(&b.pair_j[k0]));
-  // The scalar kernel's test, dist^2 < (r_i + r_j)^2, on the same numbers.
-  const Real* x = b.x[0].data();
-  const __m128i i3 = _mm_add_epi32(_mm_add_epi32(i, i), i), j3 = _mm_add_epi32(_mm_add_epi32(j, j), j);
-  const __m128i one = _mm_set1_epi32(1), two = _mm_set1_epi32(2);
-  const V d0 = _mm256_sub_pd(gather(x, i3), gather(x, j3));
-  const V d1 = _mm256_sub_pd(gather(x, _mm_add_epi32(i3, one)), gather(x, _mm_add_epi32(j3, one)));
-  const V d2 = _mm256_sub_pd(gather(x, _mm_add_epi32(i3, two)), gather(x, _mm_add_epi32(j3, two)));
-  const V reach = _mm256_add_pd(gather(b.r.data(), i), gather(b.r.data(), j));
-  const V touch = _mm256_cmp_pd(dot3(d0, d1, d2, d0, d1, d2), _mm256_mul_pd(reach, reach), _CMP_LT_OQ);
+  const V touch = touching_lanes(b, i, j);
   const int touching = _mm256_movemask_pd(touch);
   const V spring[3] = {_mm256_loadu_pd(&vb.spring_x[k0]), _mm256_loadu_pd(&vb.spring_y[k0]),
                        _mm256_loadu_pd(&vb.spring_z[k0])};
