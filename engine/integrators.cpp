@@ -37,8 +37,7 @@ KickCheck kick_and_check_as(State& s, Real h_kick, Real h_travel, const Vec3& gr
       [&](std::size_t begin, std::size_t end, KickCheck acc) {
         for (std::size_t p = begin; p != end; ++p) {
           kick_one<Rotation, Disc>(s, p, h_kick, gravity);
-          acc.finite = acc.finite && s.position[p].allFinite() && s.velocity[p].allFinite() &&
-                       s.angular_velocity[p].allFinite();
+          acc.finite = acc.finite && particle_is_finite(s, p);
           // Most travels are plainly smaller: only a larger, equal (ties go by id) or NaN one is merged.
           const Worst travel = step_travel(s, p, h_travel);
           if (!(travel.value < acc.travel.value)) acc.travel = Worst::worse(acc.travel, travel);
@@ -52,12 +51,20 @@ KickCheck kick_and_check_as(State& s, Real h_kick, Real h_travel, const Vec3& gr
 
 }  // namespace
 
-void kick(State& s, Real h, const Vec3& gravity, bool rotation, int dimension) {
+namespace {
+
+// Calls body.template operator()<Rotation, Disc>() with the run's settings as template arguments.
+template <class Body>
+decltype(auto) with_settings(bool rotation, int dimension, const Body& body) {
   const bool disc = dimension == 2;
-  if (rotation)
-    disc ? kick_as<true, true>(s, h, gravity) : kick_as<true, false>(s, h, gravity);
-  else
-    disc ? kick_as<false, true>(s, h, gravity) : kick_as<false, false>(s, h, gravity);
+  if (rotation) return disc ? body.template operator()<true, true>() : body.template operator()<true, false>();
+  return disc ? body.template operator()<false, true>() : body.template operator()<false, false>();
+}
+
+}  // namespace
+
+void kick(State& s, Real h, const Vec3& gravity, bool rotation, int dimension) {
+  with_settings(rotation, dimension, [&]<bool Rotation, bool Disc>() { kick_as<Rotation, Disc>(s, h, gravity); });
 }
 
 void drift(State& s, Real h) {
@@ -65,21 +72,14 @@ void drift(State& s, Real h) {
 }
 
 void kick_drift(State& s, Real h_kick, Real h_drift, const Vec3& gravity, bool rotation, int dimension) {
-  const bool disc = dimension == 2;
-  if (rotation)
-    disc ? kick_drift_as<true, true>(s, h_kick, h_drift, gravity) : kick_drift_as<true, false>(s, h_kick, h_drift, gravity);
-  else
-    disc ? kick_drift_as<false, true>(s, h_kick, h_drift, gravity)
-         : kick_drift_as<false, false>(s, h_kick, h_drift, gravity);
+  with_settings(rotation, dimension,
+                [&]<bool Rotation, bool Disc>() { kick_drift_as<Rotation, Disc>(s, h_kick, h_drift, gravity); });
 }
 
 KickCheck kick_and_check(State& s, Real h_kick, Real h_travel, const Vec3& gravity, bool rotation, int dimension) {
-  const bool disc = dimension == 2;
-  if (rotation)
-    return disc ? kick_and_check_as<true, true>(s, h_kick, h_travel, gravity)
-                : kick_and_check_as<true, false>(s, h_kick, h_travel, gravity);
-  return disc ? kick_and_check_as<false, true>(s, h_kick, h_travel, gravity)
-              : kick_and_check_as<false, false>(s, h_kick, h_travel, gravity);
+  return with_settings(rotation, dimension, [&]<bool Rotation, bool Disc>() {
+    return kick_and_check_as<Rotation, Disc>(s, h_kick, h_travel, gravity);
+  });
 }
 
 }  // namespace dem

@@ -52,4 +52,9 @@ inline constexpr Real audit_mass_limit = 1e15;  // [kg]
 
 inline bool is_audited(Real inv_mass) { return inv_mass * audit_mass_limit > 1; }
 
+/// Whether particle p's position, velocity and spin are all finite (a run stops on the first that is not).
+inline bool particle_is_finite(const State& s, std::size_t p) {
+  return s.position[p].allFinite() && s.velocity[p].allFinite() && s.angular_velocity[p].allFinite();
+}
+
 }  // namespace dem

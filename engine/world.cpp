@@ -265,9 +265,7 @@ StepStatus World::run_until(Real t) {
 }
 
 bool World::state_is_finite() const {
-  return !parallel_any(state_.size(), [&](std::size_t p) {
-    return !(state_.position[p].allFinite() && state_.velocity[p].allFinite() && state_.angular_velocity[p].allFinite());
-  });
+  return !parallel_any(state_.size(), [&](std::size_t p) { return !particle_is_finite(state_, p); });
 }
 
 std::vector<WallLoad> World::wall_loads() const {

@@ -54,6 +54,28 @@ TEST(World, RefusesWhatARunCannotSurvive) {
   EXPECT_THROW(World w(c), std::invalid_argument);
 }
 
+// A fixed Verlet step books how far the next step carries each particle, h |v| / R, and keeps the
+// largest (the step watch); a state that overflows stops the run instead of stepping on.
+TEST(World, FixedVerletStepBooksTheLongestTravelAndStopsOnAnOverflow) {
+  WorldConfig c;
+  c.model.gravity = Vec3::Zero();
+  c.integrator.dt = 1e-3;
+  // Apart and force-free: each keeps its velocity. The second travels 4e-3 m per step, 0.08 radii.
+  c.particles = {test::particle(Vec3(0, 0, 0), Vec3(3, 0, 0), 0.1, 1),
+                 test::particle(Vec3(1, 0, 0), Vec3(0, 4, 0), 0.05, 1)};
+  World w(c);
+  ASSERT_EQ(w.advance_sync_interval(), StepStatus::ok);
+  EXPECT_NEAR(w.longest_step_travel_seen().value, 1e-3 * 4 / 0.05, 1e-15);
+  EXPECT_EQ(w.longest_step_travel_seen().particle, 1u);
+  EXPECT_DOUBLE_EQ(w.longest_step_travel_seen().time, 1e-3);
+
+  // 1e300 m/s for 1e10 s overflows the position: the first step reports it.
+  c.integrator.dt = 1e10;
+  c.particles[1].velocity = Vec3(0, 1e300, 0);
+  World overflow(c);
+  EXPECT_EQ(overflow.advance_sync_interval(), StepStatus::non_finite);
+}
+
 // A scene without a skin gets one chosen from its speeds (fixed-step Verlet): the candidate pairs
 // only have to hold every contact, so the states are those of the default skin's run, bit for bit,
 // while a tumbling mill charge rebuilds its candidates several times less often.
