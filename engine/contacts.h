@@ -133,10 +133,13 @@ inline PairNormal pair_normal(const State& s, ParticleIndex i, ParticleIndex j) 
 }
 
 /// True when particles a and b overlap and so make a contact. Two immovable particles (inverse mass 0
-/// both) have no finite effective mass: never a contact.
+/// both) have no finite effective mass: never a contact. Both tests are always made and joined
+/// without a branch: whether a candidate touches is close to a coin toss in a dense bed.
 inline bool pair_touches(const State& s, ParticleIndex a, ParticleIndex b) {
-  const Real reach = s.radius[a] + s.radius[b];  // the distance first: most candidate pairs are apart
-  return (s.position[a] - s.position[b]).squaredNorm() < reach * reach && (s.inv_mass[a] != 0 || s.inv_mass[b] != 0);
+  const Real reach = s.radius[a] + s.radius[b];
+  const bool overlapping = (s.position[a] - s.position[b]).squaredNorm() < reach * reach;
+  const bool movable = (s.inv_mass[a] != 0) | (s.inv_mass[b] != 0);
+  return overlapping & movable;
 }
 
 /// How deep a pair contact is, as the step watch reports it: its overlap over the smaller radius.
