@@ -105,11 +105,13 @@ void set_rates(ContactKinematics& kin, const SurfaceMotion& half_step, const Sur
 }
 
 /// Evaluates pair contact k of `c` (between particles i and j) and writes its slots: force, rolling torque, history,
-/// overlap and books. Returns the unit normal from j to i. Flattened: the surface-motion, rate and law
-/// helpers are inlined into it, so their structs stay in registers instead of passing through memory.
+/// overlap and books; and n x force into `moment` when given (n the unit normal from j to i), here
+/// where both are still in registers. Flattened: the surface-motion, rate and law helpers are inlined
+/// into it, so their structs stay in registers instead of passing through memory.
 template <class Law>
-[[gnu::flatten]] Vec3 evaluate_pair(const State& s, const MaterialTable& materials, PairContacts& c, std::size_t k,
-                                    ParticleIndex i, ParticleIndex j, Real h, const DashpotVelocity& d, bool books) {
+[[gnu::flatten]] void evaluate_pair(const State& s, const MaterialTable& materials, PairContacts& c, std::size_t k,
+                                    ParticleIndex i, ParticleIndex j, Real h, const DashpotVelocity& d, bool books,
+                                    Vec3* moment = nullptr) {
   const auto [n, dist] = pair_normal(s, i, j);
   const Real overlap = s.radius[i] + s.radius[j] - dist;
   const Real arm_i = s.radius[i] - 0.5 * overlap, arm_j = s.radius[j] - 0.5 * overlap;  // as gather_forces
@@ -143,7 +145,7 @@ template <class Law>
   c.elastic[k] = r.elastic;
   c.force[k] = r.force;
   if constexpr (Law::rolling) c.rolling_torque[k] = r.rolling_torque;
-  return n;
+  if (moment) *moment = n.cross(r.force);
 }
 
 template <class Law>
@@ -202,8 +204,7 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
       for (std::uint32_t e = 0; e < n_evaluated; ++e) {
         const std::uint32_t k = evaluated[e];
         const ParticleIndex j = c.j[k];
-        const Vec3 n = evaluate_pair<Law>(s, materials, c, k, i, j, h, d, books);
-        if constexpr (Law::uses_rotation) nb.moment[k] = n.cross(c.force[k]);
+        evaluate_pair<Law>(s, materials, c, k, i, j, h, d, books, Law::uses_rotation ? &nb.moment[k] : nullptr);
         nb.touching[k] = touching_yes;
         // The row's deepest: the first of equal ratios, a NaN before any number (deepest_contact).
         const Real ratio = overlap_ratio(c.overlap[k], r_i, s.radius[j]);
