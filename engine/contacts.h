@@ -134,7 +134,7 @@ inline PairNormal pair_normal(const State& s, ParticleIndex i, ParticleIndex j) 
 
 /// True when particles a and b overlap and so make a contact. Two immovable particles (inverse mass 0
 /// both) have no finite effective mass: never a contact. Both tests are always made and joined
-/// without a branch: whether a candidate touches is close to a coin toss in a dense bed.
+/// without a branch, so loops can sort candidates by it without one (neighbour_forces).
 inline bool pair_touches(const State& s, ParticleIndex a, ParticleIndex b) {
   const Real reach = s.radius[a] + s.radius[b];
   const bool overlapping = (s.position[a] - s.position[b]).squaredNorm() < reach * reach;

@@ -196,6 +196,105 @@ TEST(NeighbourContacts, ContactsEndAsTheCompactPathEndsThem) {
   EXPECT_TRUE(nb.left_behind.empty()) << "booked once";
 }
 
+// The force loop takes a row a stretch of slots at a time. A large sphere with 40 small ones around it
+// holds one row of 40 slots, three stretches: in one step a third of its contacts last (at overlaps
+// that differ, the deepest in the middle stretch), a third part within the skin and a third leave the
+// candidates, spread over every stretch. The compact path is the oracle: the same ended dissipation,
+// spectra, contacts, gathered forces and torques and deepest contact, bit for bit.
+TEST(NeighbourContacts, ARowLongerThanOneStretchAgreesWithTheCompactPath) {
+  constexpr int small_count = 40;
+  const Real big = 0.05, small = 0.01, touching = big + small - 5e-4;
+  State s;
+  s.add(Vec3::Zero(), Vec3(0.01, -0.02, 0.03), Vec3(1, 2, 3), big, 1, 1, 0);
+  std::vector<Vec3> direction;
+  for (int k = 0; k < small_count; ++k) {  // a Fibonacci sphere: neighbours 0.03 m apart, no two touch
+    const Real z = 1 - (2 * k + 1) / Real(small_count), rho = std::sqrt(1 - z * z), phi = 2.399963229728653 * k;
+    direction.push_back(Vec3(rho * std::cos(phi), rho * std::sin(phi), z));
+    s.add(touching * direction.back(), 0.05 * direction.back().cross(Vec3::UnitZ()), Vec3(0, 0, k), small, 1, 1, 0);
+  }
+  PairContacts before;
+  before.parts = {true, false, true};
+  before.resize(small_count);
+  for (int k = 0; k < small_count; ++k) {
+    before.key[k] = pair_key(s.id[0], s.id[k + 1]);
+    before.i[k] = 0;
+    before.j[k] = static_cast<ParticleIndex>(k + 1);
+    before.tangential_spring[k] = Vec3(0, 0, 1e-6 * (k % 5));
+    before.mode[k] = 0;
+    before.books[k] = {0.01 * k, 0.02, 0.5};
+    before.overlap[k] = 5e-4;
+    before.work[k] = 0.7 / (k + 3);
+    before.elastic[k] = 0.001 * (k + 1);
+    before.force[k] = Vec3(50, 0, 0);
+  }
+  before.index_rows(s.size());
+  // The step: k % 3 == 0 lasts (deeper with k up to the middle stretch), 1 parts within the skin,
+  // 2 leaves the candidates.
+  for (int k = 0; k < small_count; ++k) {
+    const Real distance = k % 3 == 0 ? touching - 1e-5 * (k < 24 ? k : 48 - k)
+                          : k % 3 == 1 ? big + small + 5e-4
+                                       : big + small + 0.02;
+    s.position[k + 1] = distance * direction[k];
+  }
+  broadphase::GridBroadphase grid;
+  broadphase::CandidatePairs candidates;
+  grid.find_pairs(s.position, s.radius, 0.002, candidates);
+  ASSERT_EQ(candidates.row_start[1] - candidates.row_start[0], 27u) << "row 0: the lasting and the parting";
+  ASSERT_EQ(candidates.pair_count(), 27u);
+  ContactConfig contact;
+  contact.normal_stiffness = 1e5;
+  contact.sliding_friction = 0.5;
+  const MaterialTable materials({MaterialConfig{}}, {contact}, Separation::overlap);
+  const ForceKernels kernels = select_force_kernels(Separation::overlap, true, RollingKind::none);
+  const Real h = 1e-5;
+  const WallContacts no_walls;
+  const std::vector<std::uint32_t> no_wall_starts(s.size() + 1, 0);
+
+  PairContacts compact = before;
+  ContactWorkspace work;
+  CollisionSpectra compact_spectra;
+  const Real compact_ended = update_pair_contacts(
+      s, candidates, materials, compact, work,
+      [&](const PairContacts& old, const std::vector<std::uint64_t>& after) { compact_spectra.record_ended(old, after); });
+  kernels.pair_forces(s, materials, compact, h, DashpotVelocity{});
+  ContactAdjacency adjacency;
+  build_pair_adjacency(s.size(), compact, adjacency);
+  adjacency.wall_start = no_wall_starts;
+  State compact_state = s;
+  gather_forces(compact_state, compact, no_walls, adjacency, true, 3);
+
+  NeighbourContacts nb;
+  rebuild_neighbours(s, candidates, before, nb);
+  kernels.neighbour_forces(s, materials, nb, h, DashpotVelocity{});
+  ContactEvents persistent_events;
+  const Real persistent_ended = finish_ended_contacts(s, nb, before, &persistent_events);
+  CollisionSpectra persistent_spectra;
+  persistent_spectra.record(persistent_events);
+  State persistent_state = s;
+  gather_neighbour_forces(persistent_state, nb, no_walls, no_wall_starts, true, 3);
+
+  EXPECT_EQ(persistent_ended, compact_ended);
+  EXPECT_EQ(persistent_spectra.events(CollisionSpectra::ball_ball), 26u) << "13 parted, 13 left the candidates";
+  EXPECT_EQ(persistent_spectra.events(CollisionSpectra::ball_ball), compact_spectra.events(CollisionSpectra::ball_ball));
+  EXPECT_EQ(persistent_spectra.dissipated(), compact_spectra.dissipated());
+  PairContacts now;
+  std::vector<std::uint32_t> scratch;
+  compact_touching(s, nb, now, scratch);
+  ASSERT_EQ(now.size(), 14u);
+  EXPECT_EQ(now.key, compact.key);
+  std::size_t differ = 0;
+  for (std::size_t p = 0; p < s.size(); ++p)
+    differ += !same_bits(persistent_state.force[p], compact_state.force[p]) ||
+              !same_bits(persistent_state.torque[p], compact_state.torque[p]);
+  EXPECT_EQ(differ, 0u) << "particles whose force or torque differ from the compact gather";
+  EXPECT_GT(compact_state.torque[0].norm(), 0) << "the tangential springs turn the big sphere";
+  const Worst compact_deepest = deepest_contact(s, compact, no_walls);
+  const Worst persistent_deepest = deepest_contact(s, nb, no_walls);
+  EXPECT_EQ(persistent_deepest.value, compact_deepest.value);
+  EXPECT_EQ(persistent_deepest.partner, compact_deepest.partner);
+  EXPECT_EQ(compact_deepest.partner, s.id[25]) << "small sphere 24, in the middle stretch";
+}
+
 // After a particle is removed the persistent list waits for the next step; the deepest overlap the
 // World reports meanwhile comes from the compact list, with valid ids.
 TEST(NeighbourContacts, DeepestOverlapBeforeTheNextStepAfterARemoval) {
