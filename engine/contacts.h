@@ -138,7 +138,7 @@ inline PairNormal pair_normal(const State& s, ParticleIndex i, ParticleIndex j) 
 inline bool pair_touches(const State& s, ParticleIndex a, ParticleIndex b) {
   const Real reach = s.radius[a] + s.radius[b];
   const bool overlapping = (s.position[a] - s.position[b]).squaredNorm() < reach * reach;
-  const bool movable = (s.inv_mass[a] != 0) | (s.inv_mass[b] != 0);
+  const bool movable = s.inv_mass[a] + s.inv_mass[b] > 0;  // inverse masses are never negative
   return overlapping & movable;
 }
 
