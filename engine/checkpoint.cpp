@@ -59,7 +59,7 @@ std::uint64_t state_hash(const State& s, const PairContacts& pairs, const WallCo
 }  // namespace dem
 
 // ---- checkpoints ---------------------------------------------------------------------------------
-// Layout: magic, format version, scene hash, then every field below in order; vectors as a 64-bit
+// Layout: magic, format version, the scene's hashes, then every field below in order; vectors as a 64-bit
 // count followed by their raw bytes (same binary on the same machine: checkpoints are for resuming,
 // not for exchange), and a trailing FNV-1a of everything before it to catch truncation.
 
@@ -67,7 +67,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 11;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra; 11: spectra per kind of size classes
+constexpr std::uint32_t checkpoint_version = 12;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra; 11: spectra per kind of size classes; 12: the scene's body hash, method, time and clock origin, for a start under other integrator settings
 
 class ByteWriter {
  public:
@@ -150,15 +150,115 @@ void state_fields(Io& io, T& s) {
 
 }  // namespace
 
-void World::save_checkpoint(const std::string& path, std::uint64_t scene_hash) const {
-  write_file_atomically(path, checkpoint_bytes(scene_hash));
+/// A checkpoint as read and checked: everything World::take_checkpoint commits, and what only a
+/// resume takes (clock, counters, origin).
+struct CheckpointContents {
+  SceneHashes hashes;
+  std::uint8_t method = 0;  // Method of the run that wrote it
+  Real time = 0;            // [s]
+  Real origin = 0;          // [s] Scheduler::origin
+  Clock clock;
+  RunCounters counters;
+  Real ended = 0, exact_dissipated = 0, candidate_skin = 0, wall_work = 0;
+  Energies start;
+  State state;
+  PairContacts pairs;
+  WallContacts walls;
+  broadphase::CandidatePairs candidates;
+  std::vector<Vec3> reference;
+  std::vector<ExactHistoryRecord> exact_history;
+  bool has_spectra = false;
+  CollisionSpectra::Books spectra_books;
+};
+
+namespace {
+
+/// Reads and checks the file: format, checksum and the consistency of its lists, against a world
+/// whose pair contacts keep `parts`, with `spectra` (null: none). `check_header` judges the hashes
+/// and method (what must match depends on the use) before the rest is read, and throws to refuse.
+template <class CheckHeader>
+CheckpointContents read_checkpoint(const std::string& path, const ContactParts& parts, const CollisionSpectra* spectra,
+                                   std::size_t particle_count, const CheckHeader& check_header) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot open checkpoint '" + path + "'");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string bytes = buffer.str();
+  ByteReader r(bytes, path);
+  char magic[sizeof checkpoint_magic];
+  r.take(magic, sizeof magic);
+  if (std::memcmp(magic, checkpoint_magic, sizeof magic) != 0) r.fail("not a dem checkpoint");
+  if (r.get<std::uint32_t>() != checkpoint_version) r.fail("written by another checkpoint format version");
+  CheckpointContents c;
+  c.hashes.physics = r.get<std::uint64_t>();
+  c.hashes.body = r.get<std::uint64_t>();
+  c.method = r.get<std::uint8_t>();
+  check_header(c);
+  c.time = r.get<Real>();
+  c.origin = r.get<Real>();
+  c.clock.interval = r.get<std::int64_t>();
+  c.clock.tick = r.get<std::int64_t>();
+  RunCounters& counters = c.counters;
+  for (std::uint64_t* v : {&counters.sync_intervals, &counters.accepted_steps, &counters.rejected_steps,
+                           &counters.forced_steps, &counters.particle_steps, &counters.force_evaluations,
+                           &counters.pair_rebuilds, &counters.richardson_steps, &counters.round_redos,
+                           &counters.unresolved_contacts})
+    *v = r.get<std::uint64_t>();
+  r.get(counters.level_histogram);
+  c.ended = r.get<Real>();
+  c.exact_dissipated = r.get<Real>();
+  c.candidate_skin = r.get<Real>();
+  c.wall_work = r.get<Real>();
+  for (Real* e : {&c.start.kinetic, &c.start.rotational, &c.start.potential, &c.start.elastic}) *e = r.get<Real>();
+  c.pairs.parts = parts;  // the scene's, as when saved
+  auto io = [&](auto& v) { r.get(v); };
+  state_fields(io, c.state);
+  pair_fields(io, c.pairs);
+  wall_fields(io, c.walls);
+  r.get(c.candidates.row_start);
+  r.get(c.candidates.partner);
+  r.get(c.reference);
+  r.get(c.exact_history);
+  c.has_spectra = r.get<std::uint8_t>() != 0;
+  if (c.has_spectra != (spectra != nullptr)) r.fail("collision spectra do not match the scene's");
+  if (c.has_spectra) {
+    if (r.get<std::uint32_t>() != static_cast<std::uint32_t>(spectra->kind_count()))
+      r.fail("collision spectra have other size classes than the scene's");
+    r.get(c.spectra_books.count);
+    r.get(c.spectra_books.energy);
+    r.get(c.spectra_books.events);
+    c.spectra_books.dissipated = r.get<double>();
+    if (!CollisionSpectra(spectra->edges()).set_books(c.spectra_books)) r.fail("damaged collision spectra");
+  }
+  if (!r.done()) r.fail("unexpected bytes after the last field");
+  if (c.state.size() != particle_count) r.fail("particle count differs from the scene's");
+  bool same_counts = true;
+  PairContacts::for_each_array(c.pairs.parts,
+                               [&](auto field) { same_counts = same_counts && (c.pairs.*field).size() == c.pairs.size(); });
+  if (!same_counts) r.fail("damaged contact list");
+  if (!broadphase::is_valid(c.candidates, c.state.size())) r.fail("damaged neighbour list");
+  return c;
 }
 
-std::string World::checkpoint_bytes(std::uint64_t scene_hash) const {
+const char* method_name(std::uint8_t method) {
+  return method == static_cast<std::uint8_t>(Method::exact) ? "exact" : "verlet";
+}
+
+}  // namespace
+
+void World::save_checkpoint(const std::string& path, const SceneHashes& hashes) const {
+  write_file_atomically(path, checkpoint_bytes(hashes));
+}
+
+std::string World::checkpoint_bytes(const SceneHashes& hashes) const {
   ByteWriter w;
   w.bytes().append(checkpoint_magic, sizeof checkpoint_magic);
   w.put(checkpoint_version);
-  w.put(scene_hash);
+  w.put(hashes.physics);
+  w.put(hashes.body);
+  w.put(static_cast<std::uint8_t>(config_.integrator.method));
+  w.put(time());
+  w.put(scheduler_.origin());
   w.put(clock_.interval);
   w.put(clock_.tick);
   for (std::uint64_t v : {counters_.sync_intervals, counters_.accepted_steps, counters_.rejected_steps,
@@ -195,86 +295,61 @@ std::string World::checkpoint_bytes(std::uint64_t scene_hash) const {
   return w.finish();
 }
 
-void World::load_checkpoint(const std::string& path, std::uint64_t scene_hash) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot open checkpoint '" + path + "'");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string bytes = buffer.str();
-  ByteReader r(bytes, path);
-  char magic[sizeof checkpoint_magic];
-  r.take(magic, sizeof magic);
-  if (std::memcmp(magic, checkpoint_magic, sizeof magic) != 0) r.fail("not a dem checkpoint");
-  if (r.get<std::uint32_t>() != checkpoint_version) r.fail("written by another checkpoint format version");
-  if (r.get<std::uint64_t>() != scene_hash)
-    r.fail("it belongs to a scene with different physics (the scene, or a --set of it, changed since)");
-  Clock clock;
-  clock.interval = r.get<std::int64_t>();
-  clock.tick = r.get<std::int64_t>();
-  RunCounters counters;
-  for (std::uint64_t* v : {&counters.sync_intervals, &counters.accepted_steps, &counters.rejected_steps,
-                           &counters.forced_steps, &counters.particle_steps, &counters.force_evaluations,
-                           &counters.pair_rebuilds, &counters.richardson_steps, &counters.round_redos,
-                           &counters.unresolved_contacts})
-    *v = r.get<std::uint64_t>();
-  r.get(counters.level_histogram);
-  const Real ended = r.get<Real>();
-  const Real exact_dissipated = r.get<Real>();
-  const Real candidate_skin = r.get<Real>();
-  const Real wall_work = r.get<Real>();
-  Energies start;
-  for (Real* e : {&start.kinetic, &start.rotational, &start.potential, &start.elastic}) *e = r.get<Real>();
-  State state;
-  PairContacts pairs;
-  pairs.parts = pairs_.parts;  // the scene's, as when saved
-  WallContacts walls;
-  broadphase::CandidatePairs candidates;
-  std::vector<Vec3> reference;
-  auto io = [&](auto& v) { r.get(v); };
-  state_fields(io, state);
-  pair_fields(io, pairs);
-  wall_fields(io, walls);
-  r.get(candidates.row_start);
-  r.get(candidates.partner);
-  r.get(reference);
-  std::vector<ExactHistoryRecord> exact_history;
-  r.get(exact_history);
-  const bool has_spectra = r.get<std::uint8_t>() != 0;
-  if (has_spectra != (spectra_ != nullptr)) r.fail("collision spectra do not match the scene's");
-  CollisionSpectra::Books spectra_books;
-  if (has_spectra) {
-    if (r.get<std::uint32_t>() != static_cast<std::uint32_t>(spectra_->kind_count()))
-      r.fail("collision spectra have other size classes than the scene's");
-    r.get(spectra_books.count);
-    r.get(spectra_books.energy);
-    r.get(spectra_books.events);
-    spectra_books.dissipated = r.get<double>();
-    if (!CollisionSpectra(spectra_->edges()).set_books(spectra_books)) r.fail("damaged collision spectra");
-  }
-  if (!r.done()) r.fail("unexpected bytes after the last field");
-  if (state.size() != state_.size()) r.fail("particle count differs from the scene's");
-  bool same_counts = true;
-  PairContacts::for_each_array(pairs.parts, [&](auto field) { same_counts = same_counts && (pairs.*field).size() == pairs.size(); });
-  if (!same_counts) r.fail("damaged contact list");
-  if (!broadphase::is_valid(candidates, state.size())) r.fail("damaged neighbour list");
+void World::load_checkpoint(const std::string& path, const SceneHashes& hashes) {
+  CheckpointContents c =
+      read_checkpoint(path, pairs_.parts, spectra_.get(), state_.size(), [&](const CheckpointContents& header) {
+        if (header.hashes.physics == hashes.physics) return;
+        const std::string hint = header.hashes.body == hashes.body
+                                     ? "; only its integrator or broadphase settings differ: start from it with --from"
+                                     : "";
+        throw std::runtime_error("checkpoint '" + path +
+                                 "': it belongs to a scene with different physics (the scene, or a --set of it, "
+                                 "changed since)" + hint);
+      });
   // Everything read and checked: commit.
-  clock_ = clock;
-  counters_ = counters;
-  ended_dissipation_ = ended;
-  exact_dissipated_ = exact_dissipated;
-  candidate_skin_ = candidate_skin;
-  wall_work_ = wall_work;
-  start_energies_ = start;
-  state_ = std::move(state);
-  pairs_ = std::move(pairs);
+  clock_ = c.clock;
+  counters_ = std::move(c.counters);
+  scheduler_.set_origin(c.origin);
+  take_checkpoint(c);
+}
+
+void World::start_from_checkpoint(const std::string& path, const SceneHashes& hashes) {
+  const auto method = static_cast<std::uint8_t>(config_.integrator.method);
+  CheckpointContents c =
+      read_checkpoint(path, pairs_.parts, spectra_.get(), state_.size(), [&](const CheckpointContents& header) {
+        if (header.hashes.body != hashes.body)
+          throw std::runtime_error("checkpoint '" + path +
+                                   "': it belongs to a scene with other particles, materials, contacts, walls, mill or "
+                                   "model; only [integrator], [broadphase], [run], [output] and [accuracy] may differ");
+        if (header.method != method)
+          throw std::runtime_error("checkpoint '" + path + "': written by integrator.method = \"" +
+                                   method_name(header.method) + "\", and a run starts from it with the same method (this "
+                                   "one is \"" + method_name(method) + "\")");
+      });
+  // Everything read and checked: commit. The clock reads zero at the checkpoint's time.
+  clock_ = Clock{};
+  counters_ = RunCounters{};
+  scheduler_.set_origin(c.time);
+  take_checkpoint(c);
+  for (auto& level : state_.level) level = static_cast<std::int8_t>(initial_level());
+}
+
+void World::take_checkpoint(CheckpointContents& c) {
+  ended_dissipation_ = c.ended;
+  exact_dissipated_ = c.exact_dissipated;
+  candidate_skin_ = c.candidate_skin;
+  wall_work_ = c.wall_work;
+  start_energies_ = c.start;
+  state_ = std::move(c.state);
+  pairs_ = std::move(c.pairs);
   pairs_stale_ = false;
   pair_contacts_changed();
-  wall_contacts_ = std::move(walls);
-  candidates_ = std::move(candidates);
-  skin_tracker_.reset(reference);
-  exact_work_.history = std::move(exact_history);
+  wall_contacts_ = std::move(c.walls);
+  candidates_ = std::move(c.candidates);
+  skin_tracker_.reset(c.reference);
+  exact_work_.history = std::move(c.exact_history);
   if (spectra_) {
-    spectra_->set_books(spectra_books);
+    spectra_->set_books(c.spectra_books);
     for (std::size_t p = 0; p < state_.size(); ++p) spectra_->classify(state_.id[p], state_.radius[p]);
   }
   walls_.set_time(time());

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/checkpoint.h"
 #include "engine/config.h"
 #include "engine/mill.h"
 
@@ -57,7 +58,10 @@ struct Scene {
   Real max_initial_overlap = 0.01;   // relative to the smaller radius of a pair [-]
   std::vector<ParticleSource> sources;  // one per particle of world.particles
   std::vector<std::uint64_t> seeds;     // generator seeds, for provenance
-  std::uint64_t physics_hash = 0;       // hash of the resolved scene without [run] and [output], for checkpoints
+  std::uint64_t physics_hash = 0;       // hash of the resolved scene without [run], [output] and [accuracy]
+  std::uint64_t body_hash = 0;          // the same without [integrator] and [broadphase] too
+  /// What a checkpoint of this scene records of it (World::save_checkpoint).
+  SceneHashes hashes() const { return {physics_hash, body_hash}; }
 };
 
 }  // namespace dem

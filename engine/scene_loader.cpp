@@ -85,17 +85,26 @@ Scene load_scene_text(const std::string& text, const std::string& file, const st
     top.fail("particles", "the scene has no particles: add [[particles]], [[particle_files]] or [[generators]]");
   loader::assign_particle_ids(scene, std::move(id_cells));
   // The physics hash ignores how long the run lasts and what it writes, so a run can be resumed
-  // with another end time or output interval, but never with other physics.
+  // with another end time or output interval, but never with other physics. The body hash ignores
+  // the integrator's and broadphase's settings too: a run may start from a checkpoint of the same
+  // particles, materials, walls and model under another control, step or tolerance.
   toml::table physics = root;
   physics.erase("run");
   physics.erase("output");
   physics.erase("accuracy");
   // A mesh wall's triangles are physics too, whatever file they came from.
+  std::string meshes;
   for (const WallConfig& w : scene.world.walls)
-    if (w.mesh) derived += "\nmesh " + w.name + " " + std::to_string(mesh_fingerprint(*w.mesh));
+    if (w.mesh) meshes += "\nmesh " + w.name + " " + std::to_string(mesh_fingerprint(*w.mesh));
   std::ostringstream resolved;
-  resolved << physics << derived;  // a level_max derived from the output interval is physics too
+  resolved << physics << derived << meshes;  // a level_max derived from the output interval is physics too
   scene.physics_hash = fnv1a(resolved.str());
+  toml::table body = std::move(physics);
+  body.erase("integrator");
+  body.erase("broadphase");
+  std::ostringstream resolved_body;
+  resolved_body << body << meshes;
+  scene.body_hash = fnv1a(resolved_body.str());
   check_initial_state(scene);
   return scene;
 }

@@ -20,7 +20,7 @@ Real Scheduler::step_of_level(int level) const { return std::ldexp(dt_base_, lev
 
 Real Scheduler::time(const Clock& clock) const {
   const Real finest = step_of_level(level_min_);
-  return static_cast<Real>(clock.interval) * sync_interval_ + static_cast<Real>(clock.tick) * finest;
+  return origin_ + (static_cast<Real>(clock.interval) * sync_interval_ + static_cast<Real>(clock.tick) * finest);
 }
 
 }  // namespace dem

@@ -56,14 +56,19 @@ class Scheduler {
   Real step_of_level(int level) const;
   /// Finest steps per sync interval, 2^(level_max - level_min).
   std::int64_t ticks_per_interval() const { return std::int64_t{1} << (level_max_ - level_min_); }
-  /// Physical time of a clock reading [s].
+  /// Physical time of a clock reading [s]: the origin plus its intervals and ticks.
   Real time(const Clock& clock) const;
+  /// The time of the clock's zero reading [s]: 0, or the checkpoint's time for a run started from
+  /// one under other integrator settings (World::start_from_checkpoint).
+  Real origin() const { return origin_; }
+  void set_origin(Real origin) { origin_ = origin; }
 
  private:
   int level_min_ = 0;
   int level_max_ = 0;
   Real dt_base_ = 0;
   Real sync_interval_ = 0;
+  Real origin_ = 0;
 };
 
 }  // namespace dem

@@ -21,6 +21,7 @@
 #include "broadphase/grid.h"
 #include "broadphase/kd_tree.h"
 #include "broadphase/skin.h"
+#include "engine/checkpoint.h"
 #include "engine/collision_spectra.h"
 #include "engine/config.h"
 #include "engine/contacts.h"
@@ -38,6 +39,7 @@
 namespace dem {
 
 struct DoublingWork;
+struct CheckpointContents;
 struct Scene;
 
 /// Outcome of advancing; anything but `ok` leaves the state inspectable and the run stopped.
@@ -144,13 +146,22 @@ class World {
   Vec3 linear_momentum() const;
   std::uint64_t state_hash() const;
   /// Checkpoint of the full state (particles, contacts with history, clock, counters, neighbour
-  /// lists) in a binary file written atomically; `scene_hash` identifies the physics it belongs to.
-  void save_checkpoint(const std::string& path, std::uint64_t scene_hash) const;
-  /// Restores a checkpoint of a world built from the same scene; throws std::runtime_error when the
-  /// file is not a checkpoint, is damaged, or belongs to other physics (another scene_hash).
-  void load_checkpoint(const std::string& path, std::uint64_t scene_hash);
+  /// lists) in a binary file written atomically; `hashes` identify the scene it belongs to.
+  void save_checkpoint(const std::string& path, const SceneHashes& hashes) const;
+  /// Restores a checkpoint of a world built from the same scene, to go on bit for bit; throws
+  /// std::runtime_error when the file is not a checkpoint, is damaged, or belongs to other physics or
+  /// integrator settings (another hashes.physics).
+  void load_checkpoint(const std::string& path, const SceneHashes& hashes);
+  /// Starts this world from a checkpoint of the same particles, materials, walls and model under its
+  /// own integrator settings (another control, step, tolerance or skin; the same method): the
+  /// particles, contacts with their history, energy books and spectra are the checkpoint's, time goes
+  /// on from the checkpoint's, and the clock, counters and levels start as a new run's. Under the
+  /// checkpoint's own settings it need not follow that run bit for bit: its times are rounded
+  /// otherwise, which moving walls see.
+  /// Throws std::runtime_error like load_checkpoint, for another hashes.body or another method.
+  void start_from_checkpoint(const std::string& path, const SceneHashes& hashes);
   /// The bytes save_checkpoint would write (to keep the last good state in memory).
-  std::string checkpoint_bytes(std::uint64_t scene_hash) const;
+  std::string checkpoint_bytes(const SceneHashes& hashes) const;
 
   /// For divergence messages: a particle (and partner) and a number describing it (step_watch.h).
   using Culprit = Worst;
@@ -258,6 +269,11 @@ class World {
   }
   void rebuild_candidates();
   void step_exact(Real h);
+  /// Takes a read and checked checkpoint's particles, contacts, books and neighbour lists
+  /// (checkpoint.cpp); the clock, counters and levels are the caller's.
+  void take_checkpoint(CheckpointContents& contents);
+  /// The level every particle starts at: 0, within the doubling control's levels.
+  int initial_level() const;
   // Step doubling (world_doubling.cpp).
   void init_doubling();
   StepStatus advance_doubling_interval();

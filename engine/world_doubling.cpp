@@ -59,6 +59,11 @@ void free_flight(const State& from, std::size_t p, const Vec3& gravity, int dime
 
 }  // namespace
 
+int World::initial_level() const {
+  const IntegratorConfig& c = config_.integrator;
+  return c.control == Control::doubling ? std::clamp(0, c.level_min, c.level_max) : 0;
+}
+
 void World::init_doubling() {
   const IntegratorConfig& c = config_.integrator;
   // Levels are stored per particle in 8 bits; the scene loader keeps them in [-100, 100] too.
@@ -76,7 +81,7 @@ void World::init_doubling() {
   d.physics = IslandPhysics{&materials_, kernels_, gravity_, config_.model.dimension, c.method,
                             config_.model.separation, walls_move_, dashpot_velocity(), spectra_ != nullptr,
                             use_wall_lists_ ? skin_ : 0};
-  for (auto& level : state_.level) level = static_cast<std::int8_t>(std::clamp(0, c.level_min, c.level_max));
+  for (auto& level : state_.level) level = static_cast<std::int8_t>(initial_level());
   // Anticipation demotes an approaching particle down to a step of t_c / 8 for the stiffest contact
   // and the lightest pair (m* = m / 2), the most a contact may need to be resolved.
   Real k_max = 0, inv_mass_max = 0, r_max = 0;

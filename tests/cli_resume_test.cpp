@@ -1,6 +1,7 @@
 // Resume through the program: a run to T, resumed from its end checkpoint to 2T, equals a straight
 // run to 2T bit for bit (state hash and series.csv bytes); a checkpoint of other physics is refused
-// with exit code 2.
+// with exit code 2. A start from a checkpoint (--from) under another control writes fresh outputs
+// from the checkpoint's time on.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -59,6 +60,41 @@ TEST(CliResume, ResumedRunEqualsStraightRunBitForBit) {
                 " --set contacts[0].normal_stiffness=2e5"),
             2);
   EXPECT_EQ(read_text(base / "split" / "series.csv"), series_before);
+  fs::remove_all(base);
+}
+
+TEST(CliResume, AStartFromACheckpointRunsUnderAnotherControl) {
+  const fs::path base = fs::temp_directory_path() / ("dem_from_" + std::to_string(::getpid()));
+  fs::remove_all(base);
+  ASSERT_EQ(run("--until 0.15 --out " + (base / "fixed").string()), 0);
+  fs::path checkpoint;
+  for (const auto& e : fs::directory_iterator(base / "fixed"))
+    if (e.path().filename().string().rfind("checkpoint_", 0) == 0) checkpoint = e.path();
+  ASSERT_FALSE(checkpoint.empty());
+  const double t0 = dem::test::cli::read_json(base / "fixed" / "summary.json")["time"].number;
+  const std::string doubling = " --set integrator.control=doubling --set integrator.tolerance=1e-3";
+  // A resume needs the same integrator settings; other physics is refused by a start too.
+  EXPECT_EQ(run("--until 0.2 --out " + (base / "refused").string() + " --resume " + checkpoint.string() + doubling), 2);
+  EXPECT_EQ(run("--until 0.2 --out " + (base / "refused").string() + " --from " + checkpoint.string() +
+                " --set contacts[0].normal_stiffness=2e5"),
+            2);
+  EXPECT_NE(run("--until 0.2 --out " + (base / "refused").string() + " --from " + checkpoint.string() + " --resume " +
+                checkpoint.string()),
+            0);
+  ASSERT_EQ(run("--until 0.2 --out " + (base / "doubling").string() + " --from " + checkpoint.string() + doubling), 0);
+  const dem::test::cli::Json summary = dem::test::cli::read_json(base / "doubling" / "summary.json");
+  EXPECT_GE(summary["time"].number, 0.2);
+  EXPECT_EQ(summary["settings"]["control"].string, "doubling");
+  // The counters are this run's alone; the energy books go on from the checkpoint's.
+  EXPECT_EQ(summary["run_particle_steps"].number, summary["counters"]["particle_steps"].number);
+  EXPECT_GT(summary["counters"]["accepted_steps"].number, 0);
+  const dem::test::cli::Json fixed = dem::test::cli::read_json(base / "fixed" / "summary.json");
+  EXPECT_EQ(summary["start"]["dissipated_energy"].number, fixed["end"]["dissipated_energy"].number);
+  // series.csv is this run's: its first row at the checkpoint's time.
+  const std::string series = read_text(base / "doubling" / "series.csv");
+  const std::size_t first_row = series.find('\n') + 1;
+  ASSERT_LT(first_row, series.size());
+  EXPECT_DOUBLE_EQ(std::stod(series.substr(first_row)), t0);
   fs::remove_all(base);
 }
 

@@ -478,9 +478,9 @@ TEST(ExactFrictionDoubling, RestoredRunContinuesBitForBit) {
   World first(config);
   for (int s = 0; s < n; ++s) ASSERT_EQ(first.advance_sync_interval(), StepStatus::ok);
   const auto path = std::filesystem::temp_directory_path() / "exact_friction_doubling.ckpt";
-  first.save_checkpoint(path.string(), 42);
+  first.save_checkpoint(path.string(), {42, 42});
   World resumed(config);
-  resumed.load_checkpoint(path.string(), 42);
+  resumed.load_checkpoint(path.string(), {42, 42});
   std::filesystem::remove(path);
   EXPECT_EQ(resumed.state_hash(), first.state_hash());
   for (int s = 0; s < 2 * n; ++s) ASSERT_EQ(resumed.advance_sync_interval(), StepStatus::ok);

@@ -253,9 +253,9 @@ TEST(SpectraKinds, ACheckpointCarriesTheSpectraPerKind) {
     ASSERT_GT(first->collision_spectra()->events(first->collision_spectra()->pair_kind(0, 1)), 0u);
     const auto path = std::filesystem::temp_directory_path() /
                       ("dem_spectra_kinds_test_" + std::to_string(::getpid()) + (doubling ? "_d" : "_f"));
-    first->save_checkpoint(path.string(), 5);
+    first->save_checkpoint(path.string(), {5, 5});
     const std::unique_ptr<World> resumed = fines_mill_world(1, overrides);
-    resumed->load_checkpoint(path.string(), 5);
+    resumed->load_checkpoint(path.string(), {5, 5});
     std::filesystem::remove(path);
     expect_same_spectra(*resumed->collision_spectra(), *first->collision_spectra());
     ASSERT_EQ(resumed->run_until(0.3), StepStatus::ok);
@@ -268,9 +268,9 @@ TEST(SpectraKinds, ACheckpointOfOtherSizeClassesIsRefused) {
   const std::unique_ptr<World> two = fines_mill_world(1, {});
   ASSERT_EQ(two->run_until(0.01), StepStatus::ok);
   const auto path = std::filesystem::temp_directory_path() / ("dem_spectra_kinds_test_classes_" + std::to_string(::getpid()));
-  two->save_checkpoint(path.string(), 5);
+  two->save_checkpoint(path.string(), {5, 5});
   const std::unique_ptr<World> three = fines_mill_world(1, {"mill.size_classes=[0.001, 0.002]"});
-  EXPECT_THROW(three->load_checkpoint(path.string(), 5), std::runtime_error);
+  EXPECT_THROW(three->load_checkpoint(path.string(), {5, 5}), std::runtime_error);
   std::filesystem::remove(path);
 }
 

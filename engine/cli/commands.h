@@ -16,6 +16,7 @@ struct RunOptions {
   std::vector<std::string> overrides;  // --set key.path=value
   bool quiet = false;
   std::string resume;                  // checkpoint to continue from
+  std::string from;                    // checkpoint to start from under this run's integrator settings
   double checkpoint_every = -1;        // [s] simulated time between checkpoints; <= 0: only at the end
 };
 

@@ -45,7 +45,7 @@ std::filesystem::path leave_checkpoints(const World& world, const Scene& scene, 
                                         const DivergenceGuard& guard, const std::filesystem::path& out) {
   if (end.divergence.empty()) {
     const std::filesystem::path path = checkpoint_path(out, world.time());
-    world.save_checkpoint(path.string(), scene.physics_hash);
+    world.save_checkpoint(path.string(), scene.hashes());
     if (!end.last_checkpoint.empty() && end.last_checkpoint != path) std::filesystem::remove(end.last_checkpoint);
     return path;
   }
@@ -65,18 +65,17 @@ int run_command(const RunOptions& options) {
   const auto start_wall = std::chrono::steady_clock::now();
   World world(scene.world);
   const bool resuming = !options.resume.empty();
-  if (resuming) {
-    try {
-      world.load_checkpoint(options.resume, scene.physics_hash);
-    } catch (const std::runtime_error& e) {
-      throw InputError(options.resume, 0, 0, "--resume", e.what());
-    }
+  try {
+    if (resuming) world.load_checkpoint(options.resume, scene.hashes());
+    if (!options.from.empty()) world.start_from_checkpoint(options.from, scene.hashes());
+  } catch (const std::runtime_error& e) {
+    throw InputError(resuming ? options.resume : options.from, 0, 0, resuming ? "--resume" : "--from", e.what());
   }
   const JsonObject start_energy = energy_json(world);
   const std::uint64_t steps_before = world.counters().particle_steps;  // a checkpoint's, when resuming
   RunOutputs outputs(scene, world, out, resuming, options.quiet);
   if (!resuming) outputs.write(world, false);
-  DivergenceGuard guard(world, scene.physics_hash);
+  DivergenceGuard guard(world, scene.hashes());
   const RunEnd end = run_loop(world, scene, options, outputs, guard, out, start_wall);
   const double wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_wall).count();
 

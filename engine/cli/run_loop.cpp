@@ -84,7 +84,7 @@ RunEnd run_loop(World& world, const Scene& scene, const RunOptions& options, Run
     }
     if (checkpoints.due(t)) {
       const std::filesystem::path path = checkpoint_path(out, t);
-      world.save_checkpoint(path.string(), scene.physics_hash);
+      world.save_checkpoint(path.string(), scene.hashes());
       if (!end.last_checkpoint.empty() && end.last_checkpoint != path) std::filesystem::remove(end.last_checkpoint);
       end.last_checkpoint = path;
       checkpoints.done_at(t);

@@ -17,15 +17,15 @@ namespace dem::cli {
 /// passed (in memory, as checkpoint bytes) for when a later one does not.
 class DivergenceGuard {
  public:
-  DivergenceGuard(const World& world, std::uint64_t physics_hash)
-      : physics_hash_(physics_hash), audit_(world), checkpoint_(world.checkpoint_bytes(physics_hash)) {}
+  DivergenceGuard(const World& world, const SceneHashes& hashes)
+      : hashes_(hashes), audit_(world), checkpoint_(world.checkpoint_bytes(hashes)) {}
 
   /// Empty if the state is sound, else why the run must stop.
   std::string check(const World& world) const { return audit_.check(world); }
   /// The state passed the audit: it is the last good one, and the next window starts here.
   void accept(const World& world) {
     audit_.accept(world);
-    checkpoint_ = world.checkpoint_bytes(physics_hash_);
+    checkpoint_ = world.checkpoint_bytes(hashes_);
   }
 
   Real last_good_time() const { return audit_.last_good_time(); }
@@ -33,7 +33,7 @@ class DivergenceGuard {
   const std::string& last_good_checkpoint() const { return checkpoint_; }
 
  private:
-  std::uint64_t physics_hash_;
+  SceneHashes hashes_;
   EnergyAudit audit_;
   std::string checkpoint_;
 };
