@@ -67,7 +67,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 12;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra; 11: spectra per kind of size classes; 12: the scene's body hash, method, time and clock origin, for a start under other integrator settings
+constexpr std::uint32_t checkpoint_version = 12;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra; 11: spectra per kind of size classes; 12: the scene's body hash, method, time and clock origin, for a start under other integrator settings, and the energy given by set_velocity
 
 class ByteWriter {
  public:
@@ -153,13 +153,11 @@ void state_fields(Io& io, T& s) {
 /// A checkpoint as read and checked: everything World::take_checkpoint commits, and what only a
 /// resume takes (clock, counters, origin).
 struct CheckpointContents {
-  SceneHashes hashes;
-  std::uint8_t method = 0;  // Method of the run that wrote it
-  Real time = 0;            // [s]
-  Real origin = 0;          // [s] Scheduler::origin
+  CheckpointHeader header;
+  Real origin = 0;  // [s] Scheduler::origin
   Clock clock;
   RunCounters counters;
-  Real ended = 0, exact_dissipated = 0, candidate_skin = 0, wall_work = 0;
+  Real ended = 0, exact_dissipated = 0, candidate_skin = 0, wall_work = 0, given_energy = 0;
   Energies start;
   State state;
   PairContacts pairs;
@@ -173,28 +171,41 @@ struct CheckpointContents {
 
 namespace {
 
+std::string file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot open checkpoint '" + path + "'");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+CheckpointHeader read_header(ByteReader& r) {
+  char magic[sizeof checkpoint_magic];
+  r.take(magic, sizeof magic);
+  if (std::memcmp(magic, checkpoint_magic, sizeof magic) != 0) r.fail("not a dem checkpoint");
+  if (r.get<std::uint32_t>() != checkpoint_version) r.fail("written by another checkpoint format version");
+  CheckpointHeader h;
+  h.hashes.physics = r.get<std::uint64_t>();
+  h.hashes.body = r.get<std::uint64_t>();
+  const auto method = r.get<std::uint8_t>();
+  if (method != static_cast<std::uint8_t>(Method::verlet) && method != static_cast<std::uint8_t>(Method::exact))
+    r.fail("damaged header");
+  h.method = static_cast<Method>(method);
+  h.time = r.get<Real>();
+  return h;
+}
+
 /// Reads and checks the file: format, checksum and the consistency of its lists, against a world
 /// whose pair contacts keep `parts`, with `spectra` (null: none). `check_header` judges the hashes
 /// and method (what must match depends on the use) before the rest is read, and throws to refuse.
 template <class CheckHeader>
 CheckpointContents read_checkpoint(const std::string& path, const ContactParts& parts, const CollisionSpectra* spectra,
                                    std::size_t particle_count, const CheckHeader& check_header) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot open checkpoint '" + path + "'");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string bytes = buffer.str();
+  const std::string bytes = file_bytes(path);
   ByteReader r(bytes, path);
-  char magic[sizeof checkpoint_magic];
-  r.take(magic, sizeof magic);
-  if (std::memcmp(magic, checkpoint_magic, sizeof magic) != 0) r.fail("not a dem checkpoint");
-  if (r.get<std::uint32_t>() != checkpoint_version) r.fail("written by another checkpoint format version");
   CheckpointContents c;
-  c.hashes.physics = r.get<std::uint64_t>();
-  c.hashes.body = r.get<std::uint64_t>();
-  c.method = r.get<std::uint8_t>();
-  check_header(c);
-  c.time = r.get<Real>();
+  c.header = read_header(r);
+  check_header(c.header);
   c.origin = r.get<Real>();
   c.clock.interval = r.get<std::int64_t>();
   c.clock.tick = r.get<std::int64_t>();
@@ -209,6 +220,7 @@ CheckpointContents read_checkpoint(const std::string& path, const ContactParts& 
   c.exact_dissipated = r.get<Real>();
   c.candidate_skin = r.get<Real>();
   c.wall_work = r.get<Real>();
+  c.given_energy = r.get<Real>();
   for (Real* e : {&c.start.kinetic, &c.start.rotational, &c.start.potential, &c.start.elastic}) *e = r.get<Real>();
   c.pairs.parts = parts;  // the scene's, as when saved
   auto io = [&](auto& v) { r.get(v); };
@@ -240,11 +252,25 @@ CheckpointContents read_checkpoint(const std::string& path, const ContactParts& 
   return c;
 }
 
-const char* method_name(std::uint8_t method) {
-  return method == static_cast<std::uint8_t>(Method::exact) ? "exact" : "verlet";
-}
+const char* method_name(Method method) { return method == Method::exact ? "exact" : "verlet"; }
 
 }  // namespace
+
+std::string start_refusal(const CheckpointHeader& header, const SceneHashes& hashes, Method method) {
+  if (header.hashes.body != hashes.body)
+    return "it belongs to a scene with other particles, materials, contacts, walls, mill or model; only "
+           "[integrator], [broadphase], [run], [output] and [accuracy] may differ";
+  if (header.method != method)
+    return std::string("written by integrator.method = \"") + method_name(header.method) +
+           "\", and a run starts from it with the same method (this one is \"" + method_name(method) + "\")";
+  return "";
+}
+
+CheckpointHeader read_checkpoint_header(const std::string& path) {
+  const std::string bytes = file_bytes(path);
+  ByteReader r(bytes, path);
+  return read_header(r);
+}
 
 void World::save_checkpoint(const std::string& path, const SceneHashes& hashes) const {
   write_file_atomically(path, checkpoint_bytes(hashes));
@@ -256,7 +282,7 @@ std::string World::checkpoint_bytes(const SceneHashes& hashes) const {
   w.put(checkpoint_version);
   w.put(hashes.physics);
   w.put(hashes.body);
-  w.put(static_cast<std::uint8_t>(config_.integrator.method));
+  w.put(static_cast<std::uint8_t>(config_.integrator.method));  // as read_header reads it
   w.put(time());
   w.put(scheduler_.origin());
   w.put(clock_.interval);
@@ -271,6 +297,7 @@ std::string World::checkpoint_bytes(const SceneHashes& hashes) const {
   w.put(exact_dissipated_);
   w.put(candidate_skin_);
   w.put(wall_work_);
+  w.put(given_energy_);
   for (Real e : {start_energies_.kinetic, start_energies_.rotational, start_energies_.potential, start_energies_.elastic})
     w.put(e);
   auto io = [&](auto& v) { w.put(v); };
@@ -297,7 +324,7 @@ std::string World::checkpoint_bytes(const SceneHashes& hashes) const {
 
 void World::load_checkpoint(const std::string& path, const SceneHashes& hashes) {
   CheckpointContents c =
-      read_checkpoint(path, pairs_.parts, spectra_.get(), state_.size(), [&](const CheckpointContents& header) {
+      read_checkpoint(path, pairs_.parts, spectra_.get(), state_.size(), [&](const CheckpointHeader& header) {
         if (header.hashes.physics == hashes.physics) return;
         const std::string hint = header.hashes.body == hashes.body
                                      ? "; only its integrator or broadphase settings differ: start from it with --from"
@@ -314,22 +341,16 @@ void World::load_checkpoint(const std::string& path, const SceneHashes& hashes) 
 }
 
 void World::start_from_checkpoint(const std::string& path, const SceneHashes& hashes) {
-  const auto method = static_cast<std::uint8_t>(config_.integrator.method);
+  const Method method = config_.integrator.method;
   CheckpointContents c =
-      read_checkpoint(path, pairs_.parts, spectra_.get(), state_.size(), [&](const CheckpointContents& header) {
-        if (header.hashes.body != hashes.body)
-          throw std::runtime_error("checkpoint '" + path +
-                                   "': it belongs to a scene with other particles, materials, contacts, walls, mill or "
-                                   "model; only [integrator], [broadphase], [run], [output] and [accuracy] may differ");
-        if (header.method != method)
-          throw std::runtime_error("checkpoint '" + path + "': written by integrator.method = \"" +
-                                   method_name(header.method) + "\", and a run starts from it with the same method (this "
-                                   "one is \"" + method_name(method) + "\")");
+      read_checkpoint(path, pairs_.parts, spectra_.get(), state_.size(), [&](const CheckpointHeader& header) {
+        if (const std::string why = start_refusal(header, hashes, method); !why.empty())
+          throw std::runtime_error("checkpoint '" + path + "': " + why);
       });
   // Everything read and checked: commit. The clock reads zero at the checkpoint's time.
   clock_ = Clock{};
   counters_ = RunCounters{};
-  scheduler_.set_origin(c.time);
+  scheduler_.set_origin(c.header.time);
   take_checkpoint(c);
   for (auto& level : state_.level) level = static_cast<std::int8_t>(initial_level());
 }
@@ -339,6 +360,7 @@ void World::take_checkpoint(CheckpointContents& c) {
   exact_dissipated_ = c.exact_dissipated;
   candidate_skin_ = c.candidate_skin;
   wall_work_ = c.wall_work;
+  given_energy_ = c.given_energy;
   start_energies_ = c.start;
   state_ = std::move(c.state);
   pairs_ = std::move(c.pairs);

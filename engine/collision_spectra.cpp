@@ -138,16 +138,21 @@ double CollisionSpectra::total(Kind kind, Quantity quantity) const {
   return sum;
 }
 
-double CollisionSpectra::dissipation_share(int c) const {
-  double own = 0, all = 0;
+double CollisionSpectra::dissipated_by_class(int c) const {
+  double own = 0;
   for (Kind kind = 0; kind < kind_count(); ++kind) {
     const double d = dissipated(kind);
     const std::array<int, 2> classes = classes_of(kind);
-    all += d;
     if (classes[0] == c) own += classes[1] == c || classes[1] < 0 ? d : 0.5 * d;
     else if (classes[1] == c) own += 0.5 * d;
   }
-  return all != 0 ? own / all : 0;
+  return own;
+}
+
+double CollisionSpectra::dissipation_share(int c) const {
+  double all = 0;
+  for (Kind kind = 0; kind < kind_count(); ++kind) all += dissipated(kind);
+  return all != 0 ? dissipated_by_class(c) / all : 0;
 }
 
 CollisionSpectra::Books CollisionSpectra::books() const {

@@ -74,8 +74,11 @@ class CollisionSpectra {
   double total(Kind kind, Quantity quantity) const;
   /// Energy the booked events of one kind dissipated (normal and tangential) [J].
   double dissipated(Kind kind) const { return total(kind, normal_dissipated) + total(kind, tangential_dissipated); }
-  /// Class c's share of dissipated(): its own kinds whole, a mixed pair kind half to each class; the
-  /// shares add up to 1 (0 without dissipation).
+  /// What falls to class c of dissipated(): its own kinds whole, a mixed pair kind half to each
+  /// class [J].
+  double dissipated_by_class(int c) const;
+  /// Class c's share of dissipated(): dissipated_by_class(c) over the sum over kinds; the shares add
+  /// up to 1 (0 without dissipation).
   double dissipation_share(int c) const;
   /// Sum of one quantity over the booked events of one kind that fell in bin b [J].
   double energy(Kind kind, Quantity quantity, int b) const { return histogram(kind, quantity).energy[b]; }

@@ -360,12 +360,14 @@ EnergyBalance World::energy_balance() const {
   const Energies now = energies();
   const Energies& e0 = start_energies_;
   const Real dissipated = dissipated_energy();
-  // removed_energy_: carried out by particles an embedding program removed (world_embedding.cpp).
-  const Real error = (now.total() - e0.total()) + dissipated - wall_work_ + removed_energy_;
+  // removed_energy_ and given_energy_: carried out by particles an embedding program removed, and
+  // put in by the velocities it set (world_embedding.cpp).
+  const Real error = (now.total() - e0.total()) + dissipated - wall_work_ + removed_energy_ - given_energy_;
   // What could legitimately have become motion: the start's kinetic, rotational and elastic energy,
   // the potential energy released, the work of the walls; plus what was dissipated.
   const Real scale = e0.kinetic + e0.rotational + e0.elastic + std::abs(now.potential - e0.potential) +
-                     std::abs(dissipated) + std::abs(wall_work_) + std::abs(removed_energy_);
+                     std::abs(dissipated) + std::abs(wall_work_) + std::abs(removed_energy_) +
+                     std::abs(given_energy_);
   // Round-off floor: the potential energy is measured from the origin, so its sums carry ~1e-16 of
   // its size whatever moves; a scene with nothing in play must not be flagged for that.
   const Real floor = 1e-12 * (std::abs(e0.potential) + std::abs(now.potential)) + 1e-300;

@@ -248,6 +248,13 @@ class World {
   bool remove_particle(ParticleId id);
   /// Energy carried out by removed particles since the start [J] (see remove_particle).
   Real removed_energy() const { return removed_energy_; }
+  /// Sets a live particle's velocity at the current sync time, as an impulse would: its position,
+  /// spin, contacts and forces stay as they are; false (and nothing changes) for an id never given or
+  /// removed, or a non-finite velocity. In 2D the z component must be 0. The kinetic energy it adds
+  /// (or takes) is booked as given_energy(), which energy_balance() counts as energy put in.
+  bool set_velocity(ParticleId id, const Vec3& velocity);
+  /// Kinetic energy given to particles by set_velocity since the start [J] (negative: taken).
+  Real given_energy() const { return given_energy_; }
 
  private:
   void add_particles();
@@ -337,6 +344,7 @@ class World {
   // Embedding (world_embedding.cpp).
   void refresh_after_population_change();
   Real removed_energy_ = 0;     // kinetic, rotational and spring energy of removed particles [J]
+  Real given_energy_ = 0;       // kinetic energy set_velocity added [J]
   Culprit deepest_seen_;        // step_watch.h
   Culprit travel_seen_;
 };

@@ -189,6 +189,16 @@ ParticleId World::add_particle(const ParticleConfig& p) {
   return state_.id[slot];
 }
 
+bool World::set_velocity(ParticleId id, const Vec3& velocity) {
+  const std::optional<ParticleIndex> found = index_of(id);
+  if (!found || !velocity.allFinite() || (config_.model.dimension == 2 && velocity.z() != 0)) return false;
+  Vec3& v = state_.velocity[*found];
+  const Real inv_mass = state_.inv_mass[*found];
+  if (is_audited(inv_mass)) given_energy_ += 0.5 * (velocity.squaredNorm() - v.squaredNorm()) / inv_mass;
+  v = velocity;
+  return true;
+}
+
 bool World::remove_particle(ParticleId id) {
   const std::optional<ParticleIndex> found = index_of(id);
   if (!found) return false;

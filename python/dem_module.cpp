@@ -264,6 +264,7 @@ in the callback stops the run and propagates. Raises dem.DivergedError on a non-
             d["dissipated"] = world.dissipated_energy();
             d["wall_work"] = world.wall_work();
             d["removed"] = world.removed_energy();
+            d["given"] = world.given_energy();
             d["balance_error"] = b.error;
             d["balance_scale"] = b.scale;
             return d;
@@ -367,7 +368,16 @@ material, or has a bad radius or state. Invalidates earlier views.)doc")
           "remove_particle", [](PyWorld& w, dem::ParticleId id) { return live(w).remove_particle(id); }, py::arg("id"),
           R"doc(Removes a particle by id at the current sync time; returns False (and changes nothing) for an
 id never given or already removed. Later slots move down by one. Its kinetic, rotational and spring
-energy is booked as energies()["removed"]. Invalidates earlier views.)doc");
+energy is booked as energies()["removed"]. Invalidates earlier views.)doc")
+      .def(
+          "set_velocity",
+          [](PyWorld& w, dem::ParticleId id, const std::array<double, 3>& v) {
+            return live(w).set_velocity(id, to_vec3(v));
+          },
+          py::arg("id"), py::arg("velocity"),
+          R"doc(Sets a particle's velocity [m/s] at the current sync time, as an impulse: position, spin and
+contacts stay. Returns False (and changes nothing) for an id never given or removed, a non-finite
+velocity, or a z component in 2D. The kinetic energy it adds is booked as energies()["given"].)doc");
 
   py::class_<PyMillMonitor>(m, "MillMonitor", R"doc(
 Measures a running mill from the scene's [mill] section, as `dem run` does (engine/mill_monitor.h):

@@ -11,6 +11,7 @@
 //  - a reference loaded from the reference.csv of an earlier run gives the same errors;
 //  - observables get a noise floor from perturbed reference runs;
 //  - a mill is measured by its power draw and collision spectrum under both controls;
+//  - with --from every run starts from a warmed checkpoint and the metrics count from its time;
 //  - the recommendation.csv agrees with trade.csv (the choice recomputed here from its rows), a target
 //    replaces the noise floor, diverged rows are never chosen, and bad --target items exit 2.
 #include <gtest/gtest.h>
@@ -428,6 +429,61 @@ TEST(CliTrade, AMillIsMeasuredByItsPowerDrawAndCollisionSpectrumUnderBothControl
   const std::string metrics = read_text(dir.path() / "trade_metrics.txt");
   EXPECT_NE(metrics.find("power_draw"), std::string::npos);
   EXPECT_NE(metrics.find("collision_spectrum"), std::string::npos);
+}
+
+TEST(CliTrade, FromACheckpointEveryRunStartsThereAndTheMetricsCountFromThere) {
+  TempDir dir;
+  // The small mill warmed through its start-up at its own step, then traded over 0.5 to 0.95 s.
+  const std::string mill = "tests/scenes/mill_small.toml";
+  const Result warm = dem::test::cli::run_dem_shell("run " + mill + " --quiet --until 0.5 --out " + (dir.path() / "warm").string(),
+                                         dir.path(), source_dir);
+  ASSERT_EQ(warm.code, 0) << warm.err;
+  const fs::path checkpoint = dir.path() / "warm" / "checkpoint_0.5.bin";
+  ASSERT_TRUE(fs::exists(checkpoint));
+  // The same window by `dem run --from` at the scene's step: what the reference should dissipate.
+  const Result window = dem::test::cli::run_dem_shell("run " + mill + " --quiet --until 0.95 --from " + checkpoint.string() +
+                                               " --out " + (dir.path() / "window").string(),
+                                           dir.path(), source_dir);
+  ASSERT_EQ(window.code, 0) << window.err;
+  const dem::test::cli::Json summary = dem::test::cli::read_json(dir.path() / "window" / "summary.json");
+  const double dissipated = summary["end"]["dissipated_energy"].number - summary["start"]["dissipated_energy"].number;
+  ASSERT_GT(dissipated, 0);
+
+  const fs::path out = dir.path() / "trade";
+  const Result r = trade(mill + " --from " + checkpoint.string() + " --fixed 2e-4 --tol 1e-2 --until 0.95 --no-plot --out " +
+                             out.string(),
+                         dir);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Csv csv = read_csv(out / "trade.csv");
+  ASSERT_EQ(csv.rows.size(), 2u);
+  for (std::size_t row = 0; row < 2; ++row) EXPECT_EQ(csv.rows[row].at("status"), "ok");
+  const std::string how = read_text(out / "trade_reference.txt");
+  EXPECT_NE(how.find("start_time,0.5"), std::string::npos) << how;
+  EXPECT_NE(how.find("start_checkpoint," + checkpoint.string()), std::string::npos) << how;
+  // The reference's samples: from the checkpoint's time on, its books counted from there.
+  const Csv reference = read_csv(out / "reference.csv");
+  std::vector<std::map<std::string, std::string>> own;
+  for (const auto& row : reference.rows)
+    if (row.at("run") == "reference") own.push_back(row);
+  ASSERT_GE(own.size(), 2u);
+  EXPECT_DOUBLE_EQ(std::stod(own.front().at("time")), 0.5);
+  EXPECT_EQ(std::stod(own.front().at("dissipated_energy")), 0);
+  EXPECT_EQ(std::stod(own.front().at("power_draw")), 0);
+  EXPECT_NEAR(std::stod(own.back().at("time")), 0.95, 0.05);
+  EXPECT_NEAR(std::stod(own.back().at("dissipated_energy")), dissipated, 0.2 * dissipated)
+      << "the window's dissipation, as dem run --from measured it";
+
+  // Another body, or an end before the checkpoint: bad input.
+  EXPECT_EQ(trade(mill + " --from " + checkpoint.string() +
+                      " --set contacts[0].normal_stiffness=2e5 --fixed 2e-4 --until 0.95 --no-plot --out " + out.string(),
+                  dir)
+                .code,
+            2);
+  const Result early = trade(mill + " --from " + checkpoint.string() + " --fixed 2e-4 --until 0.4 --no-plot --out " +
+                                 out.string(),
+                             dir);
+  EXPECT_EQ(early.code, 2);
+  EXPECT_NE(early.err.find("not after the checkpoint's time"), std::string::npos) << early.err;
 }
 
 TEST(CliTrade, ACollisionSpectrumNeedsASceneThatBooksOne) {

@@ -1,11 +1,14 @@
 // The World's embedding API (world_embedding.cpp): loading a scene file, the callback at sync
 // times, contact forces against wall loads (Newton's third law), feeding a particle into free
-// space (free-flight oracle, docs/physics.md 8.1) and discharging one in contact (momentum and energy
-// books), and bitwise thread-count determinism of runs with both under both step controls.
+// space (free-flight oracle, docs/physics.md 8.1), discharging one in contact (momentum and energy
+// books), setting a velocity (an impulse the energy books see), and bitwise thread-count determinism of runs with both under both step controls.
 #include <gtest/gtest.h>
+
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <map>
 #include <stdexcept>
@@ -395,6 +398,66 @@ TEST(Embedding, FeedAndDischargeGiveTheSameHashForOneAndTwoThreads) {
       std::printf("%s: added %d, removed %d, hash %016llx\n", name.c_str(), one.added, one.removed,
                   static_cast<unsigned long long>(one.hash));
     }
+}
+
+// A particle flying free under gravity given a new velocity at a sync time flies from there as the
+// oracle says (docs/physics.md 8.1), the others do not notice, and the kinetic energy it was given is
+// booked, so the balance's error does not move.
+TEST(Embedding, SetVelocityIsAnImpulseTheBooksSee) {
+  for (Control control : {Control::fixed, Control::doubling}) {
+    SCOPED_TRACE(control == Control::fixed ? "fixed" : "doubling");
+    WorldConfig config = floor_scene(control);
+    config.particles[3].position.z() = 0.5;  // the fourth one flies above the floor
+    World world(config);
+    ASSERT_EQ(world.run_until(0.01), StepStatus::ok);
+    const EnergyBalance before = world.energy_balance();
+    const Vec3 v0(0.2, -0.1, 1.5);
+    const Vec3 x0 = world.position(3);
+    const Real t0 = world.time();
+    const Real mass = 1 / world.state().inv_mass[*world.index_of(3)];
+    const Real kinetic_before = 0.5 * mass * world.velocity(3).squaredNorm();
+    EXPECT_FALSE(world.set_velocity(99, v0)) << "an id never given";
+    EXPECT_FALSE(world.set_velocity(3, Vec3(std::nan(""), 0, 0)));
+    EXPECT_EQ(world.given_energy(), 0);
+    ASSERT_TRUE(world.set_velocity(3, v0));
+    EXPECT_EQ(world.velocity(3), v0);
+    EXPECT_NEAR(world.given_energy(), 0.5 * mass * v0.squaredNorm() - kinetic_before, 1e-15);
+    EXPECT_NEAR(world.energy_balance().error, before.error, 1e-12 * before.scale);
+    ASSERT_EQ(world.run_until(0.1), StepStatus::ok);
+    const Real t = world.time() - t0;
+    const Vec3 oracle = x0 + v0 * t + 0.5 * config.model.gravity * t * t;
+    EXPECT_LE((world.position(3) - oracle).norm(), 1e-12);
+  }
+  WorldConfig flat = floor_scene(Control::fixed);
+  flat.model.dimension = 2;
+  flat.model.gravity.z() = 0;
+  for (ParticleConfig& p : flat.particles) p.position.z() = 0;
+  flat.walls = {test::plane(Vec3(0, -0.01, 0), Vec3::UnitY())};
+  World disc_world(flat);
+  EXPECT_FALSE(disc_world.set_velocity(0, Vec3(0, 0, 1))) << "discs move in the plane";
+  EXPECT_TRUE(disc_world.set_velocity(0, Vec3(1, 0, 0)));
+}
+
+// The energy an embedding program gave by set_velocity goes into checkpoints: a resumed run balances
+// as the straight one does.
+TEST(Embedding, GivenEnergyGoesOnAfterAResume) {
+  WorldConfig config = box_scene(Control::fixed, 1, 8);
+  World straight(config), first(config), resumed(config);
+  for (World* w : {&straight, &first}) {
+    ASSERT_EQ(w->run_until(0.03), StepStatus::ok);
+    ASSERT_TRUE(w->set_velocity(0, Vec3(0, 0, 0.3)));
+  }
+  ASSERT_GT(first.given_energy(), 0);
+  const std::filesystem::path path =
+      std::filesystem::temp_directory_path() / ("dem_embedding_books_" + std::to_string(::getpid()));
+  first.save_checkpoint(path.string(), {3, 3});
+  resumed.load_checkpoint(path.string(), {3, 3});
+  std::filesystem::remove(path);
+  ASSERT_EQ(straight.run_until(0.06), StepStatus::ok);
+  ASSERT_EQ(resumed.run_until(0.06), StepStatus::ok);
+  EXPECT_EQ(resumed.given_energy(), straight.given_energy());
+  EXPECT_EQ(resumed.energy_balance().error, straight.energy_balance().error);
+  EXPECT_EQ(resumed.state_hash(), straight.state_hash());
 }
 
 }  // namespace

@@ -34,6 +34,7 @@ struct TradeOptions {
   double until = -1;                   // -1: the scene's run.until [s]
   std::vector<std::string> overrides;  // --set key.path=value
   std::vector<std::string> targets;    // --target METRIC=VALUE: an absolute error to recommend against
+  std::string from;                    // --from: a checkpoint every run starts from; empty: the scene's start
   bool quiet = false;
   bool plot = true;                    // draw trade.png with plot_trade.py
 };

@@ -70,6 +70,11 @@ int main(int argc, char** argv) {
   trade_cmd->add_option("--until", trade.until, "simulated end time [s] (default: the scene's run.until)")
       ->check(CLI::PositiveNumber);
   trade_cmd->add_option("--set", trade.overrides, "override a scene value: key.path=value (repeatable)");
+  trade_cmd
+      ->add_option("--from", trade.from,
+                   "start every run (references too) from this checkpoint of the scene, at its time, as dem run --from "
+                   "does; metrics count from there")
+      ->check(CLI::ExistingFile);
   trade_cmd->add_option("--target", trade.targets,
                         "recommend the cheapest setting within this absolute error instead of the noise floor: "
                         "METRIC=VALUE, comma-separated or repeated (units in trade_metrics.txt)")

@@ -10,8 +10,10 @@
 //   reference.csv        the reference's samples, loadable by a later `dem trade --reference FILE`
 //   trade.png            by bench/plot_trade.py when Python and matplotlib are there
 //
-// Common sync times. Every run is sampled at t_k = k T, k = 1..K, where T (the comparison interval) is
-// output.interval raised to a whole multiple of the largest fixed step; every fixed step must divide T.
+// Common sync times. Every run is sampled at t_k = t_0 + k T, k = 1..K, from its start t_0 (0, or
+// with --from the time of the checkpoint every run, references included, starts from; the metrics
+// then count from there). T, the comparison interval, is output.interval raised to a whole multiple
+// of the largest fixed step; every fixed step must divide T.
 // Doubling runs use dt_base = T and level_max = 0 (so their sync interval is T), with level_min keeping
 // the scene's finest step (dt_base * 2^level_min). The reference is a fixed step of 1/8 of the smallest
 // fixed step (the scene's dt without --fixed), so its sync times include every t_k; it is checked by a
@@ -109,11 +111,31 @@ double base_step(const Scene& scene, const TradeOptions& options) {
 }
 
 /// The comparison: output.interval raised to a multiple of the largest fixed step, which every
-/// fixed step must divide; the sample count and the metrics.
+/// fixed step must divide; the start (the scene's, or the --from checkpoint's time), the sample
+/// count and the metrics.
 Plan make_plan(const Scene& scene, const TradeOptions& options) {
   const double base_dt = base_step(scene, options);
   const double largest = options.fixed.empty() ? base_dt : *std::max_element(options.fixed.begin(), options.fixed.end());
   Plan plan;
+  if (!options.from.empty()) {
+    CheckpointHeader header;
+    try {
+      header = read_checkpoint_header(options.from);
+    } catch (const std::runtime_error& e) {
+      throw InputError(options.from, 0, 0, "--from", e.what());
+    }
+    if (const std::string why = start_refusal(header, scene.hashes(), scene.world.integrator.method); !why.empty())
+      throw InputError(options.from, 0, 0, "--from", "the checkpoint: " + why);
+    if (!(scene.run.until > header.time)) {
+      char text[200];
+      std::snprintf(text, sizeof text, "the end time %.9g s is not after the checkpoint's time %.9g s: give a later --until",
+                    scene.run.until, header.time);
+      throw InputError(options.from, 0, 0, "--from", text);
+    }
+    plan.checkpoint = options.from;
+    plan.hashes = scene.hashes();
+    plan.start = header.time;
+  }
   plan.interval = std::ceil(scene.output.interval / largest - 1e-9) * largest;
   for (double dt : options.fixed.empty() ? std::vector<double>{base_dt} : options.fixed) {
     const double r = plan.interval / dt;
@@ -126,7 +148,8 @@ Plan make_plan(const Scene& scene, const TradeOptions& options) {
       throw InputError("--fixed", 0, 0, "", text);
     }
   }
-  plan.count = std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(scene.run.until / plan.interval - 1e-9)));
+  plan.count = std::max<std::int64_t>(
+      1, static_cast<std::int64_t>(std::ceil((scene.run.until - plan.start) / plan.interval - 1e-9)));
   plan.metrics = choose_metrics(scene);
   if (reference_from_file(options)) plan.metrics.spectrum = false;  // a default only here: the file holds no spectrum
   plan.up = up_direction(scene.world);
@@ -165,8 +188,7 @@ bool make_reference(const Scene& scene, const TradeOptions& options, const Plan&
   for (const Job& job : jobs) {
     WorldConfig config = fixed_config_of(scene);
     config.integrator.dt = config.integrator.dt_base = job.dt;
-    if (job.seed > 0) perturb(config, job.seed);
-    made.push_back(run_setting(config, plan));
+    made.push_back(run_setting(config, plan, job.seed));
     const RunResult& r = made.back();
     say(options.quiet, "  %-9s fixed dt = %-10.4g %8.3g s  %s\n", job.name.c_str(), job.dt, r.wall_time, r.status.c_str());
     if (r.status != "ok") {
@@ -307,14 +329,14 @@ void write_trade_metrics(const fs::path& out, const std::vector<std::string>& co
 /// trade_reference.txt: how the reference was made.
 void write_trade_reference(const fs::path& out, const Scene& scene, const std::string& method,
                            const Reference& reference, const Plan& plan, const ReferenceQuality& q) {
-  const double end_time = static_cast<double>(plan.count) * plan.interval;
+  const double end_time = plan.start + static_cast<double>(plan.count) * plan.interval;
   std::ostringstream s;
   s << "key,value\nscene," << scene.file << "\nmethod," << method << "\nreference," << reference.source
     << "\nreference_dt," << (reference.source == "auto" ? number(reference.dt) : "") << "\ncheck_dt,"
     << (reference.source == "auto" ? number(reference.dt / 2) : "") << "\nnoise_runs,"
     << (q.have_noise ? reference.runs.size() - 2 : 0) << "\ncomparison_interval," << number(plan.interval)
     << "\nend_time," << number(end_time) << "\ndoubling_dt_base," << number(plan.interval)
-    << "\ndoubling_level_max,0\n";
+    << "\ndoubling_level_max,0\nstart_checkpoint," << plan.checkpoint << "\nstart_time," << number(plan.start) << "\n";
   write_file_atomically(out / "trade_reference.txt", s.str());
 }
 
@@ -474,10 +496,11 @@ int trade_command(const TradeOptions& options) {
   const Plan plan = make_plan(scene, options);
   const std::vector<std::string> columns = plan.metrics.columns();
   const std::map<std::string, double> targets = parse_targets(options.targets, columns);
-  const double end_time = static_cast<double>(plan.count) * plan.interval;
-  say(options.quiet, "dem trade %s: %s, %zu particles, compared every %.6g s up to %.6g s; metrics: %s\n",
-      scene.name.c_str(), method.c_str(), scene.world.particles.size(), plan.interval, end_time,
-      join(columns, ", ").c_str());
+  const double end_time = plan.start + static_cast<double>(plan.count) * plan.interval;
+  const std::string from = plan.checkpoint.empty() ? "" : " (" + plan.checkpoint + ")";
+  say(options.quiet, "dem trade %s: %s, %zu particles, compared every %.6g s from %.6g s%s up to %.6g s; metrics: %s\n",
+      scene.name.c_str(), method.c_str(), scene.world.particles.size(), plan.interval, plan.start, from.c_str(),
+      end_time, join(columns, ", ").c_str());
 
   Reference reference;
   reference.dt = base_step(scene, options) / 8;

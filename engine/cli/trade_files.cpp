@@ -108,7 +108,7 @@ std::map<std::string, std::vector<Sample>> read_reference(const std::string& fil
     const std::vector<std::string> f = split(line, ',');
     const std::string run = c_run >= 0 && c_run < static_cast<int>(f.size()) ? f[static_cast<std::size_t>(c_run)] : "reference";
     const double t = value(f, c_time);
-    const double k_real = t / plan.interval;
+    const double k_real = (t - plan.start) / plan.interval;
     const auto k = static_cast<std::int64_t>(std::llround(k_real));
     if (!(std::abs(k_real - static_cast<double>(k)) <= 1e-6) || k < 0 || k > plan.count) continue;  // not a sample time
     std::vector<Sample>& samples = runs[run];
@@ -141,8 +141,8 @@ std::map<std::string, std::vector<Sample>> read_reference(const std::string& fil
         char text[200];
         std::snprintf(text, sizeof text,
                       "run '%s' has no complete sample at t = %.9g s (the comparison interval is %.9g s up to %.9g s)",
-                      name.c_str(), static_cast<double>(k) * plan.interval, plan.interval,
-                      static_cast<double>(plan.count) * plan.interval);
+                      name.c_str(), plan.start + static_cast<double>(k) * plan.interval, plan.interval,
+                      plan.start + static_cast<double>(plan.count) * plan.interval);
         throw InputError(file, 0, 0, "--reference", text);
       }
     }

@@ -10,7 +10,36 @@
 namespace dem::cli::trade {
 namespace {
 
-Sample sample_of(const World& world, bool trajectory, const Vec3& up) {
+/// What the metrics count from: the books at the run's start (zero for a run from the scene's start).
+struct Baseline {
+  double time = 0, dissipated = 0, wall_work = 0, fines_dissipated = 0, spectra_dissipated = 0;
+  std::vector<double> spectrum;
+};
+
+/// Every kind's bins, in the order of Sample::spectrum.
+std::vector<double> spectrum_bins(const CollisionSpectra& spectra) {
+  std::vector<double> bins;
+  for (CollisionSpectra::Kind kind = 0; kind < spectra.kind_count(); ++kind)
+    for (int q = 0; q < CollisionSpectra::quantity_count; ++q)
+      for (int b = 0; b < CollisionSpectra::bin_count; ++b)
+        bins.push_back(spectra.energy(kind, static_cast<CollisionSpectra::Quantity>(q), b));
+  return bins;
+}
+
+Baseline baseline_of(const World& world) {
+  Baseline b;
+  b.time = world.time();
+  b.dissipated = world.dissipated_energy();
+  b.wall_work = world.wall_work();
+  if (const CollisionSpectra* spectra = world.collision_spectra()) {
+    b.spectrum = spectrum_bins(*spectra);
+    b.fines_dissipated = spectra->dissipated_by_class(0);
+    b.spectra_dissipated = spectra->dissipated();
+  }
+  return b;
+}
+
+Sample sample_of(const World& world, bool trajectory, const Vec3& up, const Baseline& start) {
   Sample s;
   s.time = world.time();
   const State& st = world.state();
@@ -20,7 +49,7 @@ Sample sample_of(const World& world, bool trajectory, const Vec3& up) {
       s.velocity.push_back(st.velocity[p]);
     }
   const Energies e = world.energies();
-  s.observable[dissipated_energy] = world.dissipated_energy();
+  s.observable[dissipated_energy] = world.dissipated_energy() - start.dissipated;
   s.observable[kinetic_energy] = e.kinetic + e.rotational;
   std::vector<double> height;
   height.reserve(st.size());
@@ -37,15 +66,17 @@ Sample sample_of(const World& world, bool trajectory, const Vec3& up) {
   double force = 0;
   for (const WallLoad& load : world.wall_loads()) force += load.force.norm();
   s.observable[wall_force] = force;
-  s.observable[power_draw] = s.time > 0 ? world.wall_work() / s.time : 0;
-  if (const CollisionSpectra* spectra = world.collision_spectra())
-  {
+  const double elapsed = s.time - start.time;
+  s.observable[power_draw] = elapsed > 0 ? (world.wall_work() - start.wall_work) / elapsed : 0;
+  if (const CollisionSpectra* spectra = world.collision_spectra()) {
     // Every kind's bins: with size classes the distance compares the spectra kind by kind.
-    for (CollisionSpectra::Kind kind = 0; kind < spectra->kind_count(); ++kind)
-      for (int q = 0; q < CollisionSpectra::quantity_count; ++q)
-        for (int b = 0; b < CollisionSpectra::bin_count; ++b)
-          s.spectrum.push_back(spectra->energy(kind, static_cast<CollisionSpectra::Quantity>(q), b));
-    if (spectra->class_count() > 1) s.observable[fines_dissipation_share] = spectra->dissipation_share(0);
+    s.spectrum = spectrum_bins(*spectra);
+    for (std::size_t k = 0; k < start.spectrum.size(); ++k) s.spectrum[k] -= start.spectrum[k];
+    if (spectra->class_count() > 1) {
+      const double all = spectra->dissipated() - start.spectra_dissipated;
+      s.observable[fines_dissipation_share] =
+          all != 0 ? (spectra->dissipated_by_class(0) - start.fines_dissipated) / all : 0;
+    }
   }
   return s;
 }
@@ -57,14 +88,6 @@ double draw(std::uint64_t seed, std::uint64_t particle, std::uint64_t component)
   z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
   z ^= z >> 31;
   return static_cast<double>(z >> 11) * 0x1.0p-53 * 2 - 1;
-}
-
-}  // namespace
-
-Vec3 up_direction(const WorldConfig& config) {
-  const Vec3 g = config.model.gravity;
-  if (g.norm() > 0) return -g.normalized();
-  return config.model.dimension == 2 ? Vec3(0, 1, 0) : Vec3(0, 0, 1);
 }
 
 /// Perturbs initial velocities by 1e-9 relative and positions by 1e-12 m (per component, seeded).
@@ -79,20 +102,46 @@ void perturb(WorldConfig& config, std::uint64_t seed) {
   }
 }
 
-/// Runs `config` to K T, sampling at every k T. Never throws for a failing run: the status says it.
-RunResult run_setting(WorldConfig config, const Plan& plan) {
+/// The same draws for a world started from a checkpoint, on its velocities only: moving a particle
+/// would leave its contacts' springs as they were.
+void perturb(World& world, std::uint64_t seed) {
+  const int dims = world.config().model.dimension == 2 ? 2 : 3;
+  const State& st = world.state();
+  for (std::size_t p = 0; p < st.size(); ++p) {  // slots are in id order
+    Vec3 v = st.velocity[p];
+    for (int k = 0; k < dims; ++k) v[k] *= 1 + 1e-9 * draw(seed, p, static_cast<std::uint64_t>(k));
+    world.set_velocity(st.id[p], v);
+  }
+}
+
+}  // namespace
+
+Vec3 up_direction(const WorldConfig& config) {
+  const Vec3 g = config.model.gravity;
+  if (g.norm() > 0) return -g.normalized();
+  return config.model.dimension == 2 ? Vec3(0, 1, 0) : Vec3(0, 0, 1);
+}
+
+RunResult run_setting(WorldConfig config, const Plan& plan, std::uint64_t seed) {
   RunResult r;
   const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   try {
+    const bool from_checkpoint = !plan.checkpoint.empty();
+    if (seed > 0 && !from_checkpoint) perturb(config, seed);
     World world(config);
+    if (from_checkpoint) {
+      world.start_from_checkpoint(plan.checkpoint, plan.hashes);
+      if (seed > 0) perturb(world, seed);
+    }
     const double sync = world.sync_interval();
     const double ratio = plan.interval / sync;
     const auto per_sample = static_cast<std::int64_t>(std::llround(ratio));
     if (per_sample < 1 || std::abs(ratio - static_cast<double>(per_sample)) > 1e-6 * ratio)
       throw std::runtime_error("the sync interval " + std::to_string(sync) + " s does not divide the comparison interval");
     EnergyAudit audit(world);
-    r.samples.push_back(sample_of(world, plan.metrics.trajectory, plan.up));
+    const Baseline baseline = baseline_of(world);
+    r.samples.push_back(sample_of(world, plan.metrics.trajectory, plan.up, baseline));
     for (std::int64_t k = 1; k <= plan.count && r.status == "ok"; ++k) {
       for (std::int64_t i = 0; i < per_sample; ++i)
         if (world.advance_sync_interval() != StepStatus::ok) {
@@ -107,7 +156,7 @@ RunResult run_setting(WorldConfig config, const Plan& plan) {
         break;
       }
       audit.accept(world);
-      r.samples.push_back(sample_of(world, plan.metrics.trajectory, plan.up));
+      r.samples.push_back(sample_of(world, plan.metrics.trajectory, plan.up, baseline));
     }
     r.counters = world.counters();
   } catch (const std::exception& e) {

@@ -29,11 +29,12 @@ inline constexpr const char* observable_names[observable_count] = {"dissipated_e
                                                         "wall_force", "power_draw", "fines_dissipation_share"};
 inline constexpr const char* observable_units[observable_count] = {"J", "m", "J", "N", "W", "1"};
 inline constexpr const char* observable_meanings[observable_count] = {
-    "energy dissipated by contacts since the start; at the end time",
+    "energy dissipated by contacts since the start (the checkpoint's time with --from); at the end time",
     "mean height (along -gravity; z without gravity; y in 2D) of the highest 10% of particles; at the end time",
     "translational plus rotational kinetic energy; at the end time",
     "sum over walls of the magnitude of the force of the particles on the wall; at the end time",
-    "mean power of the moving walls on the particles since the start (a mill's drive power): wall work / time; at the end time",
+    "mean power of the moving walls on the particles since the start (a mill's drive power): wall work / time; at the "
+    "end time",
     ("share of the energy dissipated by the contact events ended since the start that falls to the smallest size "
      "class (mill.size_classes; a contact between two classes counts half to each), 0 to 1; at the end time")};
 
@@ -95,14 +96,20 @@ struct Plan {
   std::int64_t count = 0;  // K: samples after the start
   Metrics metrics;
   Vec3 up = Vec3::UnitZ();
+  // With --from: the checkpoint every run starts from, the scene's hashes it must match, and its
+  // time, from which the samples are taken (start + k T) and the metrics counted.
+  std::string checkpoint;
+  SceneHashes hashes;
+  double start = 0;  // [s]
 };
 
 /// The direction "up" for the bed height: against gravity; z without gravity, y in 2D.
 Vec3 up_direction(const WorldConfig& config);
-/// Perturbs initial velocities by 1e-9 relative and positions by 1e-12 m (per component, seeded).
-void perturb(WorldConfig& config, std::uint64_t seed);
-/// Runs `config` to K T, sampling at every k T. Never throws for a failing run: the status says it.
-RunResult run_setting(WorldConfig config, const Plan& plan);
+/// Runs `config` (from the plan's checkpoint when it has one) to K T after its start, sampling at every
+/// k T. A seed above 0 perturbs the start: velocities by 1e-9 relative, and positions by 1e-12 m unless
+/// the run starts from a checkpoint (per component, seeded). Never throws for a failing run: the
+/// status says it.
+RunResult run_setting(WorldConfig config, const Plan& plan, std::uint64_t seed = 0);
 
 // ---------------------------------------------------------------------------------------------------
 // Comparison (trade_metrics.cpp)

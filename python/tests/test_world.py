@@ -3,6 +3,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from conftest import SCENES, SOURCE_DIR, dem_run
@@ -161,6 +162,24 @@ def test_a_bad_scene_raises_the_loaders_message(dem_program, tmp_path):
         dem.World.from_scene(str(SCENES / "head_on.toml"), overrides=["integrator.dt=-1"])
     with pytest.raises(dem.InputError, match="^text.toml:"):
         dem.World.from_toml("[scene]\nbogus = 1\n", name="text.toml")
+
+
+def test_set_velocity_is_an_impulse_the_books_see():
+    # docs/physics.md 8.1: from the new velocity on, particle 0 flies as x0 + v0 t + g t^2 / 2.
+    world = dem.World.from_toml(FREE_FLIGHT)
+    world.run_until(0.05)
+    assert not world.set_velocity(7, [0.0, 0.0, 1.0])
+    assert not world.set_velocity(0, [float("nan"), 0.0, 0.0])
+    x0, t0 = np.array(world.position(0)), world.time
+    v0 = np.array([0.5, -1.0, 3.0])
+    assert world.set_velocity(0, v0)
+    e = world.energies()
+    assert e["given"] != 0
+    assert abs(e["balance_error"]) <= 1e-9 * e["balance_scale"]
+    world.run_until(0.25)
+    t = world.time - t0
+    g = np.array([0.3, -0.2, -9.81])
+    assert np.allclose(world.position(0), x0 + v0 * t + 0.5 * g * t * t, rtol=0, atol=1e-12)
 
 
 def test_add_and_remove_particles_between_sync_intervals():
