@@ -67,7 +67,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 12;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra; 11: spectra per kind of size classes; 12: the scene's body hash, method, time and clock origin, for a start under other integrator settings, and the energy given by set_velocity
+constexpr std::uint32_t checkpoint_version = 13;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra; 11: spectra per kind of size classes; 12: the scene's body hash, method, time and clock origin, for a start under other integrator settings; 13: the energy given by set_velocity
 
 class ByteWriter {
  public:
