@@ -59,9 +59,9 @@ std::uint64_t state_hash(const State& s, const PairContacts& pairs, const WallCo
 }  // namespace dem
 
 // ---- checkpoints ---------------------------------------------------------------------------------
-// Layout: magic, format version, the scene's hashes, then every field below in order; vectors as a 64-bit
-// count followed by their raw bytes (same binary on the same machine: checkpoints are for resuming,
-// not for exchange), and a trailing FNV-1a of everything before it to catch truncation.
+// Layout: magic, format version, the scene's hashes, then every field below in order; vectors as a
+// 64-bit count followed by their raw bytes (same binary on the same machine: checkpoints are for
+// resuming, not for exchange), and a trailing FNV-1a of everything before it to catch truncation.
 
 namespace dem {
 namespace {
@@ -245,8 +245,9 @@ CheckpointContents read_checkpoint(const std::string& path, const ContactParts& 
   if (!r.done()) r.fail("unexpected bytes after the last field");
   if (c.state.size() != particle_count) r.fail("particle count differs from the scene's");
   bool same_counts = true;
-  PairContacts::for_each_array(c.pairs.parts,
-                               [&](auto field) { same_counts = same_counts && (c.pairs.*field).size() == c.pairs.size(); });
+  PairContacts::for_each_array(c.pairs.parts, [&](auto field) {
+    same_counts = same_counts && (c.pairs.*field).size() == c.pairs.size();
+  });
   if (!same_counts) r.fail("damaged contact list");
   if (!broadphase::is_valid(c.candidates, c.state.size())) r.fail("damaged neighbour list");
   return c;

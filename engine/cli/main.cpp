@@ -30,8 +30,9 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   run_cmd->add_option("--set", run.overrides, "override a scene value: key.path=value (repeatable)");
   run_cmd->add_flag("--quiet", run.quiet, "no progress bar or final line");
-  CLI::Option* resume = run_cmd->add_option("--resume", run.resume, "continue bit for bit from a checkpoint of this scene")
-                            ->check(CLI::ExistingFile);
+  CLI::Option* resume =
+      run_cmd->add_option("--resume", run.resume, "continue bit for bit from a checkpoint of this scene")
+          ->check(CLI::ExistingFile);
   run_cmd
       ->add_option("--from", run.from,
                    "start from a checkpoint of this scene's particles, materials and walls under this run's integrator "
