@@ -149,9 +149,14 @@ double CollisionSpectra::dissipated_by_class(int c) const {
   return own;
 }
 
-double CollisionSpectra::dissipation_share(int c) const {
+double CollisionSpectra::dissipated_over_kinds() const {
   double all = 0;
   for (Kind kind = 0; kind < kind_count(); ++kind) all += dissipated(kind);
+  return all;
+}
+
+double CollisionSpectra::dissipation_share(int c) const {
+  const double all = dissipated_over_kinds();
   return all != 0 ? dissipated_by_class(c) / all : 0;
 }
 

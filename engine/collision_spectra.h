@@ -77,8 +77,10 @@ class CollisionSpectra {
   /// What falls to class c of dissipated(): its own kinds whole, a mixed pair kind half to each
   /// class [J].
   double dissipated_by_class(int c) const;
-  /// Class c's share of dissipated(): dissipated_by_class(c) over the sum over kinds; the shares add
-  /// up to 1 (0 without dissipation).
+  /// dissipated(kind) summed over the kinds: dissipated() summed bin by bin [J].
+  double dissipated_over_kinds() const;
+  /// Class c's share of dissipated(): dissipated_by_class(c) over dissipated_over_kinds(); the shares
+  /// add up to 1 (0 without dissipation).
   double dissipation_share(int c) const;
   /// Sum of one quantity over the booked events of one kind that fell in bin b [J].
   double energy(Kind kind, Quantity quantity, int b) const { return histogram(kind, quantity).energy[b]; }

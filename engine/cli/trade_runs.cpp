@@ -34,7 +34,7 @@ Baseline baseline_of(const World& world) {
   if (const CollisionSpectra* spectra = world.collision_spectra()) {
     b.spectrum = spectrum_bins(*spectra);
     b.fines_dissipated = spectra->dissipated_by_class(0);
-    b.spectra_dissipated = spectra->dissipated();
+    b.spectra_dissipated = spectra->dissipated_over_kinds();
   }
   return b;
 }
@@ -73,7 +73,7 @@ Sample sample_of(const World& world, bool trajectory, const Vec3& up, const Base
     s.spectrum = spectrum_bins(*spectra);
     for (std::size_t k = 0; k < start.spectrum.size(); ++k) s.spectrum[k] -= start.spectrum[k];
     if (spectra->class_count() > 1) {
-      const double all = spectra->dissipated() - start.spectra_dissipated;
+      const double all = spectra->dissipated_over_kinds() - start.spectra_dissipated;
       s.observable[fines_dissipation_share] =
           all != 0 ? (spectra->dissipated_by_class(0) - start.fines_dissipated) / all : 0;
     }
