@@ -87,7 +87,7 @@ MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candida
 }
 
 Real MultilevelGroup::step_of_index(std::size_t index) const {
-  return std::ldexp(physics_.dt_base, physics_.level_min + static_cast<int>(index));
+  return std::ldexp(physics_.dt_base, base_level_ + static_cast<int>(index));
 }
 
 Real MultilevelGroup::tick_length() const { return std::ldexp(physics_.dt_base, physics_.level_min); }
@@ -110,6 +110,7 @@ void MultilevelGroup::set_levels(const std::vector<int>& levels) {
 
 void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& wall_contacts) {
   const std::size_t n = state_.size();
+  base_level_ = level_.empty() ? physics_.level_min : *std::min_element(level_.begin(), level_.end());
   std::size_t count = 1;
   for (int l : level_) count = std::max(count, level_index(l) + 1);
   const auto contact_index = [&](std::size_t a, std::size_t b) {
@@ -309,7 +310,7 @@ void MultilevelGroup::begin_step(ParticleIndex p, std::int64_t t) {
   Step& s = step_[p];
   const TickLoad& l = load_[p];
   s.start = t;
-  s.ticks = std::int64_t{1} << level_index(level_[p]);
+  s.ticks = ticks_of_index(level_index(level_[p]));
   const Real h = step_of_index(level_index(level_[p]));
   s.x0 = state_.position[p];
   s.v0 = state_.velocity[p];
@@ -429,7 +430,7 @@ void MultilevelGroup::advance(std::int64_t ticks) {
   for (std::size_t p = 0; p < n; ++p) {
     const std::size_t index = level_index(level_[p]);
     finest = std::min(finest, index);
-    if (ticks <= 0 || ticks % (std::int64_t{1} << index) != 0)
+    if (ticks <= 0 || ticks % ticks_of_index(index) != 0)
       throw std::invalid_argument("MultilevelGroup::advance: every particle's step must divide the ticks");
   }
   if (n == 0) return;
@@ -441,12 +442,12 @@ void MultilevelGroup::advance(std::int64_t ticks) {
   step_.resize(n);
   for (std::size_t p = 0; p < n; ++p) begin_step(static_cast<ParticleIndex>(p), 0);
   clear_loads();
-  const std::int64_t stride = std::int64_t{1} << finest;
+  const std::int64_t stride = ticks_of_index(finest);
   const Real tick = tick_length();
   for (std::int64_t t = stride; t <= ticks; t += stride) {
     // Due: the particles whose step ends at t, the levels up to the largest that t is aligned to.
     std::size_t due = finest;
-    while (due + 1 < neighbours_.size() && t % (std::int64_t{1} << (due + 1)) == 0) ++due;
+    while (due + 1 < neighbours_.size() && t % ticks_of_index(due + 1) == 0) ++due;
     finish_positions(due);
     set_view_positions(t, due);
     walls_->set_time(time0_ + static_cast<Real>(tick_origin_ + t) * tick);

@@ -123,8 +123,13 @@ class MultilevelGroup {
   void check_levels(const std::vector<int>& levels) const;
   /// Puts the contacts (compact, key order, group slots) into the lists of the current levels.
   void distribute(const PairContacts& pairs, const WallContacts& wall_contacts);
-  std::size_t level_index(int level) const { return static_cast<std::size_t>(level - physics_.level_min); }
+  /// Per-level lists are indexed from the group's finest level, so levels no member holds cost nothing.
+  std::size_t level_index(int level) const { return static_cast<std::size_t>(level - base_level_); }
   Real step_of_index(std::size_t index) const;
+  /// Ticks (steps of physics.level_min) in one step of level index `index`.
+  std::int64_t ticks_of_index(std::size_t index) const {
+    return std::int64_t{1} << (base_level_ - physics_.level_min + static_cast<int>(index));
+  }
   Real tick_length() const;
   /// Evaluates the pair contacts of contact level index c and the wall contacts of the particles at
   /// that level, in view_, with springs advancing by h.
@@ -155,6 +160,7 @@ class MultilevelGroup {
   Real time0_ = 0;  // at construction or reset [s]
   std::int64_t tick_origin_ = 0;  // ticks since construction or reset at the start of the current advance
   std::vector<int> level_;
+  int base_level_ = 0;  // the finest level of level_ (physics_.level_min when empty)
   bool rotation_ = false;
   ContactParts parts_;
 
