@@ -132,9 +132,15 @@ void Walls::set_time(Real t) {
     const WallConfig& c = config_[w];
     Pose& p = pose_[w];
     const Real s = ramp_distance(t, c.ramp_time);
-    const Real angle = c.angular_velocity.norm() * s;
-    p.rotation = angle != 0 ? Eigen::AngleAxisd(angle, c.angular_velocity.normalized()).toRotationMatrix()
-                           : Eigen::Matrix3d::Identity();
+    // A mill's walls turn together: a wall with the previous one's spin and ramp takes its rotation.
+    const WallConfig* before = w > 0 ? &config_[w - 1] : nullptr;
+    if (before && before->angular_velocity == c.angular_velocity && before->ramp_time == c.ramp_time) {
+      p.rotation = pose_[w - 1].rotation;
+    } else {
+      const Real angle = c.angular_velocity.norm() * s;
+      p.rotation = angle != 0 ? Eigen::AngleAxisd(angle, c.angular_velocity.normalized()).toRotationMatrix()
+                             : Eigen::Matrix3d::Identity();
+    }
     p.center = c.rotation_center + c.velocity * s;
     p.point = p.center + p.rotation * (c.point - c.rotation_center);
     p.direction = p.rotation * (c.kind == WallKind::plane ? c.normal : c.axis);
