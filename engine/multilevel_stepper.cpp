@@ -138,9 +138,9 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
     for (std::size_t a = 0; a < n; ++a) c.row_start[a + 1] += c.row_start[a];
     c.partner.resize(c.row_start[n]);
   }
-  fill_.resize(count);
+  // Rows are filled in order, so each level's cursor runs through its rows without a reset.
+  fill_.assign(count, 0);
   for (std::size_t a = 0; a < n; ++a) {
-    for (std::size_t c = 0; c < count; ++c) fill_[c] = level_candidates_[c].row_start[a];
     for (std::uint32_t k = candidates_.row_start[a]; k < candidates_.row_start[a + 1]; ++k) {
       const std::uint32_t b = candidates_.partner[k];
       const std::size_t c = contact_index(a, b);
@@ -150,15 +150,17 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
 
   // Each contact goes to the compact list of its contact level, in key order, and the persistent
   // lists are made from those.
-  for (PairContacts& c : compact_) {
-    c.parts = parts_;
-    c.resize(0);
+  // Counted first, so each list is sized once.
+  fill_.assign(count, 0);
+  for (std::size_t k = 0; k < pairs.size(); ++k) ++fill_[contact_index(pairs.i[k], pairs.j[k])];
+  for (std::size_t c = 0; c < count; ++c) {
+    compact_[c].parts = parts_;
+    compact_[c].resize(fill_[c]);
   }
+  fill_.assign(count, 0);
   for (std::size_t k = 0; k < pairs.size(); ++k) {
-    PairContacts& c = compact_[contact_index(pairs.i[k], pairs.j[k])];
-    const std::size_t at = c.size();
-    c.resize(at + 1);
-    copy_pair(pairs, k, c, at);
+    const std::size_t c = contact_index(pairs.i[k], pairs.j[k]);
+    copy_pair(pairs, k, compact_[c], fill_[c]++);
   }
   for (std::size_t c = 0; c < count; ++c) {
     compact_[c].index_rows(n);
@@ -196,12 +198,15 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
     member_index_[p] = static_cast<std::uint32_t>(m.size());
     m.push_back(static_cast<ParticleIndex>(p));
   }
-  for (WallContacts& w : wall_contacts_) w.resize(0);
+  fill_.assign(count, 0);
+  for (std::size_t k = 0; k < wall_contacts.size(); ++k) ++fill_[level_index(level_[wall_contacts.particle[k]])];
+  for (std::size_t l = 0; l < count; ++l) wall_contacts_[l].resize(fill_[l]);
+  fill_.assign(count, 0);
   for (std::size_t k = 0; k < wall_contacts.size(); ++k) {
     const ParticleIndex p = wall_contacts.particle[k];
-    WallContacts& w = wall_contacts_[level_index(level_[p])];
-    const std::size_t at = w.size();
-    w.resize(at + 1);
+    const std::size_t l = level_index(level_[p]);
+    WallContacts& w = wall_contacts_[l];
+    const std::size_t at = fill_[l]++;
     copy_wall(wall_contacts, k, w, at);
     w.particle[at] = member_index_[p];
   }
