@@ -1,10 +1,11 @@
 // Prism walls (lifter bars) against an independent shape with the same surface: a prism of square
 // cross-section is a solid box, so both must give the same contact everywhere; and the start-up ramp
-// against its closed form.
+// against its closed form, for each wall whether or not it turns as its neighbour in the list does.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "engine/walls.h"
 
@@ -107,6 +108,38 @@ TEST(WallRamp, AngleAndSpeedFollowTheLinearStartUp) {
     EXPECT_LT((walls.rotation(0) - expected).norm(), 1e-14) << "t = " << t;
     EXPECT_NEAR(walls.angular_velocity(0).z(), speed, 1e-15);
     EXPECT_NEAR((walls.velocity_at(0, Vec3(1, 0, 0)) - Vec3(0, speed, 0)).norm(), 0, 1e-15);
+  }
+}
+
+TEST(WallRamp, EachWallTurnsByItsOwnSpinAndRampWhereNeighboursShareOrDiffer) {
+  // Neighbours in the list that share spin and ramp, then differ in the ramp only, then in the spin
+  // only, then do not turn: each rotation against its closed form.
+  struct Motion {
+    Vec3 spin;
+    Real ramp;
+  };
+  const std::vector<Motion> motions{{Vec3(0, 0, 3), 2}, {Vec3(0, 0, 3), 2}, {Vec3(0, 0, 3), 0.5},
+                                    {Vec3(1, -2, 0.5), 0.5}, {Vec3(0, 0, 0), 0.5}, {Vec3(1, -2, 0.5), 0.5}};
+  std::vector<WallConfig> configs;
+  for (const Motion& m : motions) {
+    WallConfig w;
+    w.kind = WallKind::cylinder;
+    w.radius = 1;
+    w.angular_velocity = m.spin;
+    w.ramp_time = m.ramp;
+    configs.push_back(w);
+  }
+  Walls walls(configs, one_material());
+  for (const Real t : {0.0, 0.3, 1.0, 2.5}) {
+    walls.set_time(t);
+    for (std::size_t k = 0; k < motions.size(); ++k) {
+      const Real ramp = motions[k].ramp, rate = motions[k].spin.norm();
+      const Real angle = rate * (t < ramp ? t * t / (2 * ramp) : t - ramp / 2);
+      const Eigen::Matrix3d expected =
+          rate > 0 ? Eigen::AngleAxisd(angle, motions[k].spin.normalized()).toRotationMatrix()
+                   : Eigen::Matrix3d(Eigen::Matrix3d::Identity());
+      EXPECT_LT((walls.rotation(k) - expected).norm(), 1e-14) << "wall " << k << ", t = " << t;
+    }
   }
 }
 
