@@ -86,11 +86,9 @@ MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candida
   for (std::size_t c = 0; c < neighbours_.size(); ++c) evaluate_level(c, 0);
 }
 
-Real MultilevelGroup::step_of_index(std::size_t index) const {
-  return std::ldexp(physics_.dt_base, base_level_ + static_cast<int>(index));
-}
+Real MultilevelGroup::step_of_index(std::size_t index) const { return level_step_[index]; }
 
-Real MultilevelGroup::tick_length() const { return std::ldexp(physics_.dt_base, physics_.level_min); }
+Real MultilevelGroup::tick_length() const { return tick_; }
 
 void MultilevelGroup::check_levels(const std::vector<int>& levels) const {
   if (levels.size() != state_.size()) throw std::invalid_argument("MultilevelGroup: one level per particle");
@@ -113,6 +111,9 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
   base_level_ = level_.empty() ? physics_.level_min : *std::min_element(level_.begin(), level_.end());
   std::size_t count = 1;
   for (int l : level_) count = std::max(count, level_index(l) + 1);
+  tick_ = std::ldexp(physics_.dt_base, physics_.level_min);
+  level_step_.resize(count);
+  for (std::size_t c = 0; c < count; ++c) level_step_[c] = std::ldexp(physics_.dt_base, base_level_ + static_cast<int>(c));
   const auto contact_index = [&](std::size_t a, std::size_t b) {
     return level_index(std::min(level_[a], level_[b]));
   };
@@ -217,18 +218,22 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
 }
 
 WallContacts MultilevelGroup::wall_contacts() const {
+  WallContacts out;
+  wall_contacts(out);
+  return out;
+}
+
+void MultilevelGroup::wall_contacts(WallContacts& out) const {
   std::vector<std::pair<std::uint64_t, std::pair<std::size_t, std::uint32_t>>> order;
   for (std::size_t l = 0; l < wall_contacts_.size(); ++l)
     for (std::uint32_t k = 0; k < wall_contacts_[l].size(); ++k) order.push_back({wall_contacts_[l].key[k], {l, k}});
   std::sort(order.begin(), order.end());
-  WallContacts out;
   out.resize(order.size());
   for (std::size_t q = 0; q < order.size(); ++q) {
     const auto [l, k] = order[q].second;
     copy_wall(wall_contacts_[l], k, out, q);
     out.particle[q] = members_[l][wall_contacts_[l].particle[k]];
   }
-  return out;
 }
 
 void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
@@ -479,6 +484,12 @@ std::vector<std::pair<ParticleIndex, ParticleIndex>> MultilevelGroup::touching_p
 }
 
 PairContacts MultilevelGroup::pair_contacts() const {
+  PairContacts out;
+  pair_contacts(out);
+  return out;
+}
+
+void MultilevelGroup::pair_contacts(PairContacts& out) const {
   const std::size_t n = state_.size();
   std::vector<std::pair<std::uint64_t, std::pair<std::size_t, std::uint32_t>>> order;
   for (std::size_t c = 0; c < neighbours_.size(); ++c) {
@@ -490,7 +501,6 @@ PairContacts MultilevelGroup::pair_contacts() const {
           order.push_back({pair_key(state_.id[a], state_.id[nb.list.j[k]]), {c, k}});
   }
   std::sort(order.begin(), order.end());
-  PairContacts out;
   out.parts = parts_;
   out.resize(order.size());
   for (std::size_t q = 0; q < order.size(); ++q) {
@@ -503,14 +513,14 @@ PairContacts MultilevelGroup::pair_contacts() const {
     out.i[q] = static_cast<ParticleIndex>(row);
   }
   out.index_rows(n);
-  return out;
 }
 
 std::size_t MultilevelGroup::memory_bytes() const {
   std::size_t total = heap_bytes(state_) + heap_bytes(view_) + heap_bytes(candidates_) + heap_bytes(level_) +
                       heap_bytes(workspace_) + heap_bytes(step_) + heap_bytes(load_) + heap_bytes(loaded_) +
                       heap_bytes(loaded_list_) + heap_bytes(excursion_) + heap_bytes(miss_) + heap_bytes(origin_) +
-                      heap_bytes(fill_) + heap_bytes(member_index_) + heap_bytes(seen_);
+                      heap_bytes(fill_) + heap_bytes(member_index_) + heap_bytes(seen_) +
+                      heap_bytes(level_step_);
   const auto each = [&](const auto& per_level) {
     total += heap_bytes(per_level);
     for (const auto& item : per_level) total += heap_bytes(item);

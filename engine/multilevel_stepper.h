@@ -84,11 +84,15 @@ class MultilevelGroup {
   Real ended_dissipation() const { return ended_dissipation_; }
   /// The touching pair contacts, in key order, with row_start indexed.
   PairContacts pair_contacts() const;
+  /// The same into `out`, which keeps its storage.
+  void pair_contacts(PairContacts& out) const;
   /// The touching pairs (group slots, the row's first), by contact level and row: where only the
   /// partners matter, without pair_contacts()' copy and sort.
   std::vector<std::pair<ParticleIndex, ParticleIndex>> touching_pairs() const;
   /// The wall contacts, in key order (so by particle).
   WallContacts wall_contacts() const;
+  /// The same into `out`, which keeps its storage.
+  void wall_contacts(WallContacts& out) const;
   /// Work of the moving walls on the particles so far, each level's contacts times its step [J].
   Real wall_work() const { return wall_work_; }
   /// Per particle: the farthest it was, actual or predicted at any tick, from where it started [m].
@@ -161,6 +165,8 @@ class MultilevelGroup {
   std::int64_t tick_origin_ = 0;  // ticks since construction or reset at the start of the current advance
   std::vector<int> level_;
   int base_level_ = 0;  // the finest level of level_ (physics_.level_min when empty)
+  std::vector<Real> level_step_;  // per level index: its step [s]
+  Real tick_ = 0;                 // the step of physics_.level_min [s]
   bool rotation_ = false;
   ContactParts parts_;
 

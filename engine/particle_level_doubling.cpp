@@ -29,8 +29,8 @@ void take_trial(const MultilevelGroup& trial, bool book_events, const std::vecto
   s.angular_velocity = t.angular_velocity;
   s.force = t.force;
   s.torque = t.torque;
-  island.pairs = trial.pair_contacts();
-  island.walls = trial.wall_contacts();
+  trial.pair_contacts(island.pairs);
+  trial.wall_contacts(island.walls);
   build_pair_adjacency(s.size(), island.pairs, island.adjacency);
   std::vector<std::uint32_t>& start = island.adjacency.wall_start;
   start.assign(s.size() + 1, 0);
