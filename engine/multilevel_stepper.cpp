@@ -113,7 +113,8 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
   for (int l : level_) count = std::max(count, level_index(l) + 1);
   tick_ = std::ldexp(physics_.dt_base, physics_.level_min);
   level_step_.resize(count);
-  for (std::size_t c = 0; c < count; ++c) level_step_[c] = std::ldexp(physics_.dt_base, base_level_ + static_cast<int>(c));
+  for (std::size_t c = 0; c < count; ++c)
+    level_step_[c] = std::ldexp(physics_.dt_base, base_level_ + static_cast<int>(c));
   const auto contact_index = [&](std::size_t a, std::size_t b) {
     return level_index(std::min(level_[a], level_[b]));
   };
