@@ -3,20 +3,24 @@
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
+#include <utility>
 
 #include <Eigen/Geometry>
 
 namespace dem {
 namespace {
 
+std::uint64_t mix(std::uint64_t z) {
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
 double uniform01(std::uint64_t seed, std::uint64_t a, std::uint64_t b, std::uint64_t c) {
-  std::uint64_t z = seed;
-  for (std::uint64_t v : {a, b, c}) {
-    z += 0x9E3779B97F4A7C15ull + v;
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-  }
+  // The seed is mixed before the first counter is added: otherwise seed s and particle n + 1 would
+  // draw what seed s + 1 and particle n draw, and two seeds would place nearly the same particles.
+  std::uint64_t z = mix(seed + 0x9E3779B97F4A7C15ull);
+  for (std::uint64_t v : {a, b, c}) z = mix(z + 0x9E3779B97F4A7C15ull + v);
   return (static_cast<double>(z >> 11) + 0.5) * 0x1.0p-53;  // in (0, 1)
 }
 
@@ -146,7 +150,40 @@ GeneratorResult generate_particles(const GeneratorConfig& g, std::vector<Particl
       return {false, "placed only " + std::to_string(n) + " of " + std::to_string(g.count) +
                          " particles without overlap: enlarge the region, reduce count or raise max_attempts"};
   }
+  order_along_curve(particles, particles.size() - static_cast<std::size_t>(g.count));
   return {};
+}
+
+void order_along_curve(std::vector<ParticleConfig>& particles, std::size_t first) {
+  if (particles.size() <= first + 1) return;
+  const auto begin = particles.begin() + static_cast<std::ptrdiff_t>(first);
+  Vec3 lo = begin->position, hi = lo;
+  for (auto p = begin; p != particles.end(); ++p) {
+    lo = lo.cwiseMin(p->position);
+    hi = hi.cwiseMax(p->position);
+  }
+  const Real side = (hi - lo).maxCoeff();
+  constexpr int bits = 10;
+  const auto cell = [&](Real x, Real x_lo) {
+    const Real fraction = side > 0 ? (x - x_lo) / side : 0;
+    return static_cast<std::uint32_t>(std::clamp(fraction, Real{0}, Real{1}) * ((1 << bits) - 1));
+  };
+  // The curve's key: the cells' bits interleaved, x lowest.
+  std::vector<std::pair<std::uint32_t, std::size_t>> order;
+  order.reserve(particles.size() - first);
+  for (auto p = begin; p != particles.end(); ++p) {
+    std::uint32_t key = 0;
+    for (int d = 0; d < 3; ++d) {
+      const std::uint32_t c = cell(p->position[d], lo[d]);
+      for (int b = 0; b < bits; ++b) key |= ((c >> b) & 1u) << (3 * b + d);
+    }
+    order.push_back({key, static_cast<std::size_t>(p - begin)});
+  }
+  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<ParticleConfig> sorted;
+  sorted.reserve(order.size());
+  for (const auto& [key, q] : order) sorted.push_back(std::move(begin[static_cast<std::ptrdiff_t>(q)]));
+  std::move(sorted.begin(), sorted.end(), begin);
 }
 
 }  // namespace dem

@@ -1,7 +1,8 @@
 #pragma once
 // Seeded generators that fill a box or a cylinder with N particles of a size distribution without
 // overlap (random sequential insertion). Random numbers are counter-based: a hash of (seed, particle,
-// purpose, attempt), so the result depends on nothing but the settings.
+// purpose, attempt), so the result depends on nothing but the settings. The placed particles are
+// then numbered along a space-filling curve, so neighbours in space are neighbours in memory.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -40,7 +41,14 @@ struct GeneratorResult {
 Real radius_moment(const GeneratorConfig& config, int k);
 
 /// Appends `count` non-overlapping particles, wholly inside the region, to `particles` (which may
-/// already hold particles to avoid). Fails with a message when the region is too full.
+/// already hold particles to avoid), in the order of order_along_curve. Fails with a message when the
+/// region is too full.
 GeneratorResult generate_particles(const GeneratorConfig& config, std::vector<ParticleConfig>& particles);
+
+/// Reorders particles[first ..] along a Morton (Z-order) curve through their centres, ties in their
+/// present order, so that particles near each other in space get nearby ids, and so nearby slots: the
+/// force loops then read partners close in memory, and two threads share few cache lines. Positions
+/// are quantised to 1,024 cells per axis of the group's bounding cube.
+void order_along_curve(std::vector<ParticleConfig>& particles, std::size_t first);
 
 }  // namespace dem

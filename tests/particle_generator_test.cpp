@@ -82,7 +82,12 @@ TEST(ParticleGenerator, SameSeedSameParticlesOtherSeedOthers) {
     EXPECT_EQ(a[i].position, b[i].position);
     EXPECT_EQ(a[i].radius, b[i].radius);
   }
-  EXPECT_NE(a[0].position, c[0].position);
+  // Another seed places other particles: none of seed 12's centres is one of seed 11's. (Seeds whose
+  // draws were those of a neighbouring seed's next particle placed nearly the same set.)
+  std::size_t shared = 0;
+  for (const ParticleConfig& p : c)
+    shared += std::any_of(a.begin(), a.end(), [&](const ParticleConfig& q) { return q.position == p.position; });
+  EXPECT_EQ(shared, 0u);
 }
 
 TEST(ParticleGenerator, FillsACylinderAndAvoidsExistingParticles) {
@@ -117,6 +122,72 @@ TEST(ParticleGenerator, ReportsARegionTooFullInsteadOfOverlapping) {
   const GeneratorResult r = generate_particles(g, ps);
   EXPECT_FALSE(r.ok);
   EXPECT_NE(r.message.find("without overlap"), std::string::npos);
+}
+
+double mean_step_between_consecutive(const std::vector<ParticleConfig>& ps, std::size_t first = 0) {
+  double sum = 0;
+  for (std::size_t p = first + 1; p < ps.size(); ++p) sum += (ps[p].position - ps[p - 1].position).norm();
+  return sum / static_cast<double>(ps.size() - first - 1);
+}
+
+// Placed at random, numbered along the curve: consecutive particles are neighbours in space. In
+// placement order two consecutive centres of the 0.3 m box lie about 0.2 m apart on average (a third
+// of the box's diagonal); along the curve, a few diameters.
+TEST(ParticleGenerator, NumbersTheParticlesAlongASpaceFillingCurve) {
+  std::vector<ParticleConfig> ps;
+  ASSERT_TRUE(generate_particles(box_config(SizeDistribution::mono), ps).ok);
+  EXPECT_LT(mean_step_between_consecutive(ps), 4 * 2 * 0.008);
+  expect_no_overlap(ps);
+}
+
+// The Z-order of the eight corners of a cube, given shuffled: x varies fastest, then y, then z. The
+// particles before `first` stay where they are.
+TEST(OrderAlongCurve, PutsTheCornersOfACubeInZOrder) {
+  std::vector<ParticleConfig> ps(11);
+  ps[0].position = Vec3(5, 5, 5);
+  ps[1].position = Vec3(-5, 0, 0);
+  const int shuffled[8] = {6, 3, 0, 5, 7, 1, 4, 2};  // corner c at (c & 1, c >> 1 & 1, c >> 2 & 1)
+  for (int q = 0; q < 8; ++q) {
+    const int c = shuffled[q];
+    ps[2 + q].position = Vec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+    ps[2 + q].radius = 0.1 * (c + 1);  // travels with its particle
+  }
+  ps[10].position = Vec3(1, 1, 1);  // equal to corner 7: ties keep their order
+  ps[10].radius = 9;
+  order_along_curve(ps, 2);
+  EXPECT_EQ(ps[0].position, Vec3(5, 5, 5));
+  EXPECT_EQ(ps[1].position, Vec3(-5, 0, 0));
+  for (int c = 0; c < 8; ++c) {
+    EXPECT_EQ(ps[2 + c].position, Vec3(c & 1, (c >> 1) & 1, (c >> 2) & 1)) << c;
+    EXPECT_DOUBLE_EQ(ps[2 + c].radius, 0.1 * (c + 1)) << c;
+  }
+  EXPECT_EQ(ps[10].radius, 9);
+}
+
+// A shuffled 16 x 16 x 16 lattice comes back as the same points, each a lattice spacing or so from
+// the one before it (the curve jumps between blocks now and then).
+TEST(OrderAlongCurve, KeepsThePointsAndWalksALatticeStepByStep) {
+  std::vector<ParticleConfig> ps;
+  for (int x = 0; x < 16; ++x)
+    for (int y = 0; y < 16; ++y)
+      for (int z = 0; z < 16; ++z) {
+        ParticleConfig p;
+        p.position = Vec3(x, y, z);
+        ps.push_back(p);
+      }
+  std::vector<ParticleConfig> shuffled = ps;
+  for (std::size_t p = shuffled.size() - 1; p > 0; --p)  // a fixed permutation
+    std::swap(shuffled[p], shuffled[(p * 2654435761u) % (p + 1)]);
+  ASSERT_GT(mean_step_between_consecutive(shuffled), 5);
+  order_along_curve(shuffled, 0);
+  EXPECT_LT(mean_step_between_consecutive(shuffled), 2);
+  const auto less = [](const ParticleConfig& a, const ParticleConfig& b) {
+    return std::lexicographical_compare(a.position.data(), a.position.data() + 3, b.position.data(),
+                                        b.position.data() + 3);
+  };
+  std::sort(shuffled.begin(), shuffled.end(), less);
+  std::sort(ps.begin(), ps.end(), less);
+  for (std::size_t p = 0; p < ps.size(); ++p) ASSERT_EQ(shuffled[p].position, ps[p].position) << p;
 }
 
 TEST(ParticleGenerator, TwoDimensionalCentresLieInThePlane) {
