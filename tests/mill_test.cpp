@@ -62,10 +62,11 @@ TEST(Mill, CriticalSpeedMatchesTheClassicFormula) {
 // resistance), by no more than it swung in the ramp: within twice the ramp's angle, watched over two
 // revolutions after the ramp. Nothing in a smooth drum carries it up.
 TEST(Mill, SingleBallWithoutLiftersStaysNearTheBottom) {
-  MillRun run(mill_scene(0, 0.3, "count = 1"),
+  const Real fraction = 0.3, ramp_time = 0.2;  // the scene's critical_fraction and ramp_time
+  MillRun run(mill_scene(0, fraction, "count = 1"),
               [](Scene& s) { s.world.particles[0].position = Vec3(0, -(mill_radius - ball_radius), 0); });
-  const Real critical = std::sqrt(9.81 / (mill_radius - ball_radius));
-  const Real ramp_angle = std::asin(0.5 * (0.3 * critical / 0.2) * mill_radius / 9.81);
+  const Real critical = std::sqrt(9.81 / (mill_radius - ball_radius));  // [rad/s]
+  const Real ramp_angle = std::asin(0.5 * (fraction * critical / ramp_time) * mill_radius / 9.81);
   run.run_until(0.6);
   Real highest = -1;  // the ball's highest angle above the bottom, seen from the axis [rad]
   run.run_until(0.6 + 2 * run.period(), [&] {

@@ -124,10 +124,10 @@ TEST(ParticleGenerator, ReportsARegionTooFullInsteadOfOverlapping) {
   EXPECT_NE(r.message.find("without overlap"), std::string::npos);
 }
 
-double mean_step_between_consecutive(const std::vector<ParticleConfig>& ps, std::size_t first = 0) {
+double mean_step_between_consecutive(const std::vector<ParticleConfig>& ps) {
   double sum = 0;
-  for (std::size_t p = first + 1; p < ps.size(); ++p) sum += (ps[p].position - ps[p - 1].position).norm();
-  return sum / static_cast<double>(ps.size() - first - 1);
+  for (std::size_t p = 1; p < ps.size(); ++p) sum += (ps[p].position - ps[p - 1].position).norm();
+  return sum / static_cast<double>(ps.size() - 1);
 }
 
 // Placed at random, numbered along the curve: consecutive particles are neighbours in space. In
