@@ -7,20 +7,16 @@
 
 #include <Eigen/Geometry>
 
+#include "engine/hash_mix.h"
+
 namespace dem {
 namespace {
-
-std::uint64_t mix(std::uint64_t z) {
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
 
 double uniform01(std::uint64_t seed, std::uint64_t a, std::uint64_t b, std::uint64_t c) {
   // The seed is mixed before the first counter is added: otherwise seed s and particle n + 1 would
   // draw what seed s + 1 and particle n draw, and two seeds would place nearly the same particles.
-  std::uint64_t z = mix(seed + 0x9E3779B97F4A7C15ull);
-  for (std::uint64_t v : {a, b, c}) z = mix(z + 0x9E3779B97F4A7C15ull + v);
+  std::uint64_t z = splitmix64_mix(seed + 0x9E3779B97F4A7C15ull);
+  for (std::uint64_t v : {a, b, c}) z = splitmix64_mix(z + 0x9E3779B97F4A7C15ull + v);
   return (static_cast<double>(z >> 11) + 0.5) * 0x1.0p-53;  // in (0, 1)
 }
 

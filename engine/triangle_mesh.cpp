@@ -9,6 +9,8 @@
 
 #include <Eigen/Geometry>
 
+#include "engine/hash_mix.h"
+
 namespace dem {
 namespace {
 
@@ -20,12 +22,6 @@ constexpr Real inside_tolerance = 1e-10;
 /// Grid insertion and lookup pad boxes by this fraction of a cell, so a point computed on a triangle
 /// (rounded) is always found in a cell the triangle was binned into.
 constexpr Real cell_margin = 1e-6;
-
-std::uint64_t mix(std::uint64_t z) {  // splitmix64 finaliser
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
 
 struct FaceHit {
   std::uint32_t facet;
@@ -201,7 +197,7 @@ std::uint64_t TriangleMesh::cell_key(std::int64_t i, std::int64_t j, std::int64_
              (static_cast<std::uint64_t>(j) + static_cast<std::uint64_t>(cell_dims_[1]) * static_cast<std::uint64_t>(k));
 }
 
-std::size_t TriangleMesh::bucket_of(std::uint64_t key) const { return static_cast<std::size_t>(mix(key) & bucket_mask_); }
+std::size_t TriangleMesh::bucket_of(std::uint64_t key) const { return static_cast<std::size_t>(splitmix64_mix(key) & bucket_mask_); }
 
 void TriangleMesh::build_grid(Real cell_size) {
   const std::size_t T = triangles_.size();

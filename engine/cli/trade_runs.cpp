@@ -6,6 +6,7 @@
 
 #include "engine/cli/energy_audit.h"
 #include "engine/cli/trade_support.h"
+#include "engine/hash_mix.h"
 
 namespace dem::cli::trade {
 namespace {
@@ -84,9 +85,7 @@ Sample sample_of(const World& world, bool trajectory, const Vec3& up, const Base
 /// Counter-based draw in [-1, 1] from (seed, particle, component): splitmix64 of a mixed key.
 double draw(std::uint64_t seed, std::uint64_t particle, std::uint64_t component) {
   std::uint64_t z = seed * 0x9E3779B97F4A7C15ull ^ (particle + 1) * 0xBF58476D1CE4E5B9ull ^ (component + 7) * 0x94D049BB133111EBull;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  z ^= z >> 31;
+  z = splitmix64_mix(z);
   return static_cast<double>(z >> 11) * 0x1.0p-53 * 2 - 1;
 }
 
