@@ -55,6 +55,7 @@ void MultilevelGroup::reset(const State& state, const broadphase::CandidatePairs
                             const MultilevelPhysics& physics, Real time, const std::vector<int>& levels,
                             const PairContacts& pairs, const WallContacts& wall_contacts) {
   physics_ = physics;
+  tick_ = std::ldexp(physics_.dt_base, physics_.level_min);
   state_ = state;
   candidates_ = candidates;
   walls_ = &walls;
@@ -111,7 +112,6 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
   base_level_ = level_.empty() ? physics_.level_min : *std::min_element(level_.begin(), level_.end());
   std::size_t count = 1;
   for (int l : level_) count = std::max(count, level_index(l) + 1);
-  tick_ = std::ldexp(physics_.dt_base, physics_.level_min);
   level_step_.resize(count);
   for (std::size_t c = 0; c < count; ++c)
     level_step_[c] = std::ldexp(physics_.dt_base, base_level_ + static_cast<int>(c));
