@@ -45,11 +45,12 @@ std::uint64_t state_hash(const State& s, const PairContacts& pairs, const WallCo
     h.add_vec(s.velocity[p]);
     h.add_vec(s.angular_velocity[p]);
   }
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
+  // Contacts in key order, as particles in id order: the hash does not see the slots' order.
+  for (std::uint32_t k : key_order(pairs.key)) {
     h.add(pairs.key[k]);
     h.add_history(pairs.history(k));
   }
-  for (std::size_t k = 0; k < walls.size(); ++k) {
+  for (std::uint32_t k : key_order(walls.key)) {
     h.add(walls.key[k]);
     h.add_history(walls.history[k]);
   }
@@ -67,7 +68,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 13;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra; 11: spectra per kind of size classes; 12: the scene's body hash, method, time and clock origin, for a start under other integrator settings; 13: the energy given by set_velocity
+constexpr std::uint32_t checkpoint_version = 14;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra; 11: spectra per kind of size classes; 12: the scene's body hash, method, time and clock origin, for a start under other integrator settings; 13: the energy given by set_velocity; 14: the interval of the last re-sort of the particles in memory
 
 class ByteWriter {
  public:
@@ -158,6 +159,7 @@ struct CheckpointContents {
   Clock clock;
   RunCounters counters;
   Real ended = 0, exact_dissipated = 0, candidate_skin = 0, wall_work = 0, given_energy = 0;
+  std::int64_t sorted_at = -1;
   Energies start;
   State state;
   PairContacts pairs;
@@ -221,6 +223,7 @@ CheckpointContents read_checkpoint(const std::string& path, const ContactParts& 
   c.candidate_skin = r.get<Real>();
   c.wall_work = r.get<Real>();
   c.given_energy = r.get<Real>();
+  c.sorted_at = r.get<std::int64_t>();
   for (Real* e : {&c.start.kinetic, &c.start.rotational, &c.start.potential, &c.start.elastic}) *e = r.get<Real>();
   c.pairs.parts = parts;  // the scene's, as when saved
   auto io = [&](auto& v) { r.get(v); };
@@ -299,6 +302,7 @@ std::string World::checkpoint_bytes(const SceneHashes& hashes) const {
   w.put(candidate_skin_);
   w.put(wall_work_);
   w.put(given_energy_);
+  w.put(sorted_at_);
   for (Real e : {start_energies_.kinetic, start_energies_.rotational, start_energies_.potential, start_energies_.elastic})
     w.put(e);
   auto io = [&](auto& v) { w.put(v); };
@@ -353,6 +357,7 @@ void World::start_from_checkpoint(const std::string& path, const SceneHashes& ha
   counters_ = RunCounters{};
   scheduler_.set_origin(c.header.time);
   take_checkpoint(c);
+  sorted_at_ = -1;  // a new run's
   for (auto& level : state_.level) level = static_cast<std::int8_t>(initial_level());
 }
 
@@ -362,6 +367,7 @@ void World::take_checkpoint(CheckpointContents& c) {
   candidate_skin_ = c.candidate_skin;
   wall_work_ = c.wall_work;
   given_energy_ = c.given_energy;
+  sorted_at_ = c.sorted_at;
   start_energies_ = c.start;
   state_ = std::move(c.state);
   pairs_ = std::move(c.pairs);
@@ -370,6 +376,12 @@ void World::take_checkpoint(CheckpointContents& c) {
   wall_contacts_ = std::move(c.walls);
   candidates_ = std::move(c.candidates);
   skin_tracker_.reset(c.reference);
+  if (!persistent_pairs_ && !state_.slots_follow_ids()) {
+    // Saved by a fixed-step Verlet run, which keeps the particles in space order; this run keeps
+    // them in id order.
+    restore_id_order();
+    arena_->execute([&] { rebuild_candidates(); });
+  }
   exact_work_.history = std::move(c.exact_history);
   if (spectra_) {
     spectra_->set_books(c.spectra_books);

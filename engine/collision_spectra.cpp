@@ -17,6 +17,19 @@ void for_each_ended(const std::vector<std::uint64_t>& before, const std::vector<
   }
 }
 
+/// The same for wall lists, ordered by particle slot, then key.
+template <class F>
+void for_each_ended_wall(const WallContacts& before, const WallContacts& after, F&& ended) {
+  const auto precedes = [](const WallContacts& a, std::size_t p, const WallContacts& b, std::size_t q) {
+    return a.particle[p] < b.particle[q] || (a.particle[p] == b.particle[q] && a.key[p] < b.key[q]);
+  };
+  std::size_t j = 0;
+  for (std::size_t k = 0; k < before.size(); ++k) {
+    while (j < after.size() && precedes(after, j, before, k)) ++j;
+    if (j == after.size() || after.particle[j] != before.particle[k] || after.key[j] != before.key[k]) ended(k);
+  }
+}
+
 /// Impact energy, normal and tangential (rolling included) loss of one ended contact [J]. As in the
 /// World's books: dissipated = work - elastic, the normal work including the step on which the
 /// contact parted (contacts.cpp, release_work); the rest of the loss is tangential and rolling.
@@ -110,8 +123,8 @@ void CollisionSpectra::record_ended(const PairContacts& before, const std::vecto
 }
 
 void CollisionSpectra::record_ended(const WallContacts& before, const WallContacts& after) {
-  for_each_ended(before.key, after.key,
-                 [&](std::size_t k) { record_wall(before.key[k], before.history[k], before.work[k], before.elastic[k]); });
+  for_each_ended_wall(before, after,
+                     [&](std::size_t k) { record_wall(before.key[k], before.history[k], before.work[k], before.elastic[k]); });
 }
 
 void ContactEvents::record_ended(const PairContacts& before, const std::vector<std::uint64_t>& after_key) {
@@ -121,7 +134,7 @@ void ContactEvents::record_ended(const PairContacts& before, const std::vector<s
 }
 
 void ContactEvents::record_ended(const WallContacts& before, const WallContacts& after) {
-  for_each_ended(before.key, after.key, [&](std::size_t k) {
+  for_each_ended_wall(before, after, [&](std::size_t k) {
     events_.push_back(event_of(before.key[k], true, before.history[k], before.work[k], before.elastic[k]));
   });
 }

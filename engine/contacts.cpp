@@ -39,8 +39,29 @@ void copy_pair(const PairContacts& a, std::size_t from, PairContacts& b, std::si
 
 void PairContacts::index_rows(std::size_t particle_count) {
   row_start.assign(particle_count + 1, 0);
-  for (std::size_t k = 0; k < size(); ++k) ++row_start[std::min(i[k], j[k]) + 1];
+  for (std::size_t k = 0; k < size(); ++k) ++row_start[i[k] + 1];
   for (std::size_t a = 0; a < particle_count; ++a) row_start[a + 1] += row_start[a];
+}
+
+std::vector<std::uint32_t> key_order(const std::vector<std::uint64_t>& keys) {
+  std::vector<std::uint32_t> order(keys.size());
+  for (std::size_t k = 0; k < keys.size(); ++k) order[k] = static_cast<std::uint32_t>(k);
+  if (!std::is_sorted(keys.begin(), keys.end()))
+    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return keys[a] < keys[b]; });
+  return order;
+}
+
+bool wall_keys_ascend_along_particles(const WallContacts& c) {
+  for (std::size_t k = 1; k < c.size(); ++k)
+    if (c.particle[k] < c.particle[k - 1] || (c.particle[k] == c.particle[k - 1] && !(c.key[k - 1] < c.key[k])))
+      return false;
+  return true;
+}
+
+bool keys_ascend_along_rows(const PairContacts& c) {
+  for (std::size_t a = 0; a + 1 < c.row_start.size(); ++a)
+    if (!std::is_sorted(c.key.begin() + c.row_start[a], c.key.begin() + c.row_start[a + 1])) return false;
+  return true;
 }
 
 void WallContacts::resize(std::size_t n) {
@@ -98,10 +119,17 @@ void end_wall_contact(const State& s, const Walls& walls, const MaterialTable& m
   c.history[k].normal_work += release;
 }
 
-/// Index of `key` in the ascending `keys`, or -1.
-std::ptrdiff_t find_key(const std::vector<std::uint64_t>& keys, std::uint64_t key) {
-  const auto it = std::lower_bound(keys.begin(), keys.end(), key);
-  return (it != keys.end() && *it == key) ? it - keys.begin() : -1;
+/// Index of particle p's contact with `key` in a wall list (ordered by particle slot, then key), or -1.
+std::ptrdiff_t find_wall_contact(const WallContacts& c, ParticleIndex p, std::uint64_t key) {
+  std::size_t lo = 0, hi = c.size();
+  while (lo < hi) {  // the first contact not before (p, key)
+    const std::size_t mid = lo + (hi - lo) / 2;
+    if (c.particle[mid] < p || (c.particle[mid] == p && c.key[mid] < key))
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo < c.size() && c.particle[lo] == p && c.key[lo] == key ? static_cast<std::ptrdiff_t>(lo) : -1;
 }
 
 }  // namespace
@@ -173,6 +201,7 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
                           PairContacts& contacts, ContactWorkspace& work, const EndedPairsHook& on_ended) {
   const std::size_t n = candidates.row_count();
   DEM_ASSERT(n == s.size());
+  DEM_VALIDATE(s.slots_follow_ids());  // the runs that use this list keep slots in id order
   work.count.resize(n);
   parallel_for(n, [&](std::size_t a) {
     std::uint32_t c = 0;
@@ -297,7 +326,7 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
     for (std::uint32_t slot = first; slot < end; ++slot) {
       fresh.key[slot] = wall_key(s.id[p], fresh.wall[slot], fresh.feature[slot]);
       fresh.particle[slot] = static_cast<ParticleIndex>(p);
-      const std::ptrdiff_t old = find_key(contacts.key, fresh.key[slot]);
+      const std::ptrdiff_t old = find_wall_contact(contacts, static_cast<ParticleIndex>(p), fresh.key[slot]);
       if (old >= 0) {
         fresh.history[slot] = contacts.history[old];
         fresh.work[slot] = contacts.work[old];
@@ -313,9 +342,10 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
       }
     }
   });
-  DEM_VALIDATE(std::is_sorted(fresh.key.begin(), fresh.key.end()));
+  DEM_VALIDATE(wall_keys_ascend_along_particles(fresh));
   parallel_for(contacts.size(), [&](std::size_t k) {
-    if (find_key(fresh.key, contacts.key[k]) < 0) end_wall_contact(s, walls, materials, contacts, k);
+    if (find_wall_contact(fresh, contacts.particle[k], contacts.key[k]) < 0)
+      end_wall_contact(s, walls, materials, contacts, k);
   });
   const Real ended = live_dissipation(contacts.work, contacts.elastic) - live_dissipation(fresh.work, fresh.elastic);
   std::swap(contacts, fresh);
@@ -339,6 +369,51 @@ void build_pair_adjacency(std::size_t particle_count, const PairContacts& contac
     adjacency.pair_entry[cursor[contacts.i[k]]++] = static_cast<std::uint32_t>(k << 1);
     adjacency.pair_entry[cursor[contacts.j[k]]++] = static_cast<std::uint32_t>((k << 1) | 1);
   }
+  // A list in row order but not key order (slots not in id order): each particle's partners are
+  // put in id order, so the gather sums them as it would with slots in id order.
+  if (std::is_sorted(contacts.key.begin(), contacts.key.end())) return;
+  const auto partner_id = [&](std::uint32_t entry) {
+    const std::uint64_t key = contacts.key[entry >> 1];
+    return (entry & 1) ? key >> 32 : key & 0xffffffffu;  // side 1: the particle is j, its partner i
+  };
+  parallel_for(particle_count, [&](std::size_t p) {
+    std::sort(adjacency.pair_entry.begin() + start[p], adjacency.pair_entry.begin() + start[p + 1],
+              [&](std::uint32_t a, std::uint32_t b) { return partner_id(a) < partner_id(b); });
+  });
+}
+
+void permute_particles(PairContacts& c, const std::vector<std::uint32_t>& new_of_old, PairContacts& scratch) {
+  const std::size_t n = new_of_old.size();
+  // Each old row (a particle's contacts as i, ascending in key) becomes that particle's new row whole.
+  std::vector<std::uint32_t> count(n, 0), start;
+  for (std::size_t k = 0; k < c.size(); ++k) ++count[new_of_old[c.i[k]]];
+  exclusive_scan(count, start);
+  scratch.parts = c.parts;
+  scratch.resize(c.size());
+  count.assign(start.begin(), start.end() - 1);
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    const std::uint32_t to = count[new_of_old[c.i[k]]]++;
+    copy_pair(c, k, scratch, to);
+    scratch.i[to] = new_of_old[c.i[k]];
+    scratch.j[to] = new_of_old[c.j[k]];
+  }
+  scratch.row_start = std::move(start);
+  c = scratch;  // into the list's own storage, which keeps its capacity
+}
+
+void permute_particles(WallContacts& c, const std::vector<std::uint32_t>& new_of_old, WallContacts& scratch) {
+  const std::size_t n = new_of_old.size();
+  std::vector<std::uint32_t> count(n, 0), start;
+  for (std::size_t k = 0; k < c.size(); ++k) ++count[new_of_old[c.particle[k]]];
+  exclusive_scan(count, start);
+  scratch.resize(c.size());
+  count.assign(start.begin(), start.end() - 1);
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    const std::uint32_t to = count[new_of_old[c.particle[k]]]++;
+    copy_wall(c, k, scratch, to);
+    scratch.particle[to] = new_of_old[c.particle[k]];
+  }
+  c = scratch;
 }
 
 }  // namespace dem

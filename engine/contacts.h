@@ -38,10 +38,12 @@ struct EnergyBooks {
   Real impact_energy = -1;  // [J]; negative until the first evaluation
 };
 
-/// Pair contacts as a structure of arrays; the history (ContactHistory) is split by part.
+/// Pair contacts as a structure of arrays; the history (ContactHistory) is split by part. A list is in
+/// row order: by the slot of i, then by key; while slots follow ids (State::slots_follow_ids), that is
+/// key order.
 struct PairContacts {
   ContactParts parts;
-  std::vector<std::uint64_t> key;   // pair_key(id_i, id_j), ascending
+  std::vector<std::uint64_t> key;   // pair_key(id_i, id_j)
   std::vector<ParticleIndex> i, j;  // slots, id_i < id_j
   std::vector<Vec3> tangential_spring;  // parts.friction [m]
   std::vector<Vec3> rolling_spring;     // parts.rolling [rad]
@@ -55,8 +57,8 @@ struct PairContacts {
   // -a_j n x force - rolling_torque, lever arms a = r - overlap / 2, the normal n recomputed there from
   // the positions exactly as the force loop computed it (no torque or moment vector per contact).
   std::vector<Vec3> rolling_torque;  // parts.rolling: on i [N m]
-  // Contacts found from candidate row a (a = the smaller slot of the pair) are the slots
-  // row_start[a] .. row_start[a+1], ascending in key: history is inherited row by row.
+  // The contacts of row a (a = the slot of i, the pair's smaller id) are row_start[a] ..
+  // row_start[a+1], ascending in key: history is inherited row by row.
   std::vector<std::uint32_t> row_start;
 
   std::size_t size() const { return j.size(); }  // j: the one index every list holds
@@ -87,11 +89,16 @@ struct PairContacts {
   }
 };
 
+/// True when the keys of `contacts` ascend along each of its rows (row_start), as row order asks.
+bool keys_ascend_along_rows(const PairContacts& contacts);
+
 /// Copies every field list `a` holds of contact `from` into slot `to` of `b` (which holds at least those).
 void copy_pair(const PairContacts& a, std::size_t from, PairContacts& b, std::size_t to);
 
+/// Wall contacts as a structure of arrays, ordered by particle slot, then by key (so key order while
+/// slots follow ids): each particle's contacts are one range (ContactAdjacency::wall_start).
 struct WallContacts {
-  std::vector<std::uint64_t> key;  // wall_key(id, wall, feature), ascending
+  std::vector<std::uint64_t> key;  // wall_key(id, wall, feature)
   std::vector<ParticleIndex> particle;
   std::vector<std::uint32_t> wall;
   std::vector<std::uint32_t> feature;
@@ -115,6 +122,9 @@ struct WallContacts {
     f(&WallContacts::point), f(&WallContacts::force), f(&WallContacts::torque), f(&WallContacts::rolling_torque);
   }
 };
+
+/// True when `contacts` is ordered by particle slot, then by key, each key once per particle.
+bool wall_keys_ascend_along_particles(const WallContacts& contacts);
 
 /// Copies every field of wall contact `from` of `a` into slot `to` of `b`.
 void copy_wall(const WallContacts& a, std::size_t from, WallContacts& b, std::size_t to);
@@ -153,7 +163,7 @@ Real release_pair_contact(const State& state, const MaterialTable& materials, Pa
 /// Sets contact k's history, books, overlap and force to a new contact's start values.
 void reset_pair_contact(PairContacts& contacts, std::size_t k);
 
-/// Per-particle lists of contact slots for the gather, in ascending partner order:
+/// Per-particle lists of contact slots for the gather, in ascending partner id order:
 /// pair entries encode (contact << 1) | side, side 1 meaning the particle is j.
 struct ContactAdjacency {
   std::vector<std::uint32_t> pair_start;  // size n + 1
@@ -195,8 +205,10 @@ struct ContactWorkspace {
 using EndedPairsHook = std::function<void(const PairContacts& before, const std::vector<std::uint64_t>& after_key)>;
 
 /// Replaces `contacts` by the overlapping candidate pairs, inheriting history by key, in place: only
-/// the keys are built beside the old list (the old slots i, j are not needed: they are overwritten). Returns the energy dissipated by the contacts
-/// that ended (their work minus what their springs held) [J]. The torques are left for the force loop.
+/// the keys are built beside the old list (the old slots i, j are not needed: they are overwritten).
+/// Slots must follow ids (the runs that use it never re-sort). Returns the energy dissipated by the
+/// contacts that ended (their work minus what their springs held) [J]. The torques are left for the
+/// force loop.
 Real update_pair_contacts(const State& state, const broadphase::CandidatePairs& candidates,
                           const MaterialTable& materials, PairContacts& contacts, ContactWorkspace& work,
                           const EndedPairsHook& on_ended = {});
@@ -209,10 +221,20 @@ Real update_wall_contacts(const State& state, const Walls& walls, const Material
                           WallContacts& contacts, ContactWorkspace& work, std::vector<std::uint32_t>& wall_start,
                           const WallLists* lists = nullptr);
 
+/// After State::permute(order), with new_of_old[order[q]] = q: the lists' slots renumbered and put in
+/// the order a list of the new slots has (row order; by particle, then key), their history with
+/// them; `scratch` is scratch.
+void permute_particles(PairContacts& contacts, const std::vector<std::uint32_t>& new_of_old, PairContacts& scratch);
+void permute_particles(WallContacts& contacts, const std::vector<std::uint32_t>& new_of_old, WallContacts& scratch);
+
+/// The indices 0 .. n-1 of `keys` (unique) in ascending key order: how outputs and hashes walk a list,
+/// whatever order the slots put it in.
+std::vector<std::uint32_t> key_order(const std::vector<std::uint64_t>& keys);
+
 /// Energy dissipated so far by the live contacts of a list: sum of work - elastic [J].
 Real live_dissipation(const std::vector<Real>& work, const std::vector<Real>& elastic);
 
-/// Builds the pair part of the gather adjacency (ascending partner order per particle).
+/// Builds the pair part of the gather adjacency (ascending partner id order per particle).
 void build_pair_adjacency(std::size_t particle_count, const PairContacts& contacts, ContactAdjacency& adjacency);
 
 }  // namespace dem

@@ -17,10 +17,12 @@ void reset_neighbour(NeighbourContacts& nb, std::size_t k) {
 
 namespace {
 
-// Slots follow ids, so the smaller slot of every pair is its i: row a lists a's slots as i, and the
-// slots as j are collected here, walking the slots in order.
-void index_reverse_slots(std::size_t n, NeighbourContacts& nb) {
+// Row a lists the slots in which a is i; the slots in which p is j are collected here, walking the
+// rows in slot order, then put in the order of their rows' ids (which is slot order while slots
+// follow ids), so that the gather sums every particle's contacts in partner id order.
+void index_reverse_slots(const State& s, bool follow_ids, NeighbourContacts& nb) {
   const PairContacts& c = nb.list;
+  const std::size_t n = s.size();
   std::vector<std::uint32_t>& cursor = nb.cursor;
   cursor.assign(n, 0);
   for (std::size_t k = 0; k < c.size(); ++k) ++cursor[c.j[k]];
@@ -28,12 +30,52 @@ void index_reverse_slots(std::size_t n, NeighbourContacts& nb) {
   resize_with_headroom(nb.reverse_slot, c.size());
   cursor.assign(nb.reverse_start.begin(), nb.reverse_start.end() - 1);
   for (std::size_t k = 0; k < c.size(); ++k) nb.reverse_slot[cursor[c.j[k]]++] = static_cast<std::uint32_t>(k);
+  if (follow_ids) return;
+  // The row of slot k is the one whose range holds it.
+  const auto row_id = [&](std::uint32_t k) {
+    const auto row = std::upper_bound(c.row_start.begin(), c.row_start.end(), k) - c.row_start.begin() - 1;
+    return s.id[static_cast<std::size_t>(row)];
+  };
+  parallel_for(n, [&](std::size_t p) {
+    const auto first = nb.reverse_slot.begin() + nb.reverse_start[p];
+    const auto last = nb.reverse_slot.begin() + nb.reverse_start[p + 1];
+    std::sort(first, last, [&](std::uint32_t a, std::uint32_t b) { return row_id(a) < row_id(b); });
+  });
 }
 
 }  // namespace
 
-void rebuild_neighbours(const State& s, const broadphase::CandidatePairs& candidates, const PairContacts& contacts,
+void orient_by_id(const State& s, const broadphase::CandidatePairs& by_slot, broadphase::CandidatePairs& by_id,
+                  std::vector<std::uint32_t>& cursor) {
+  const std::size_t n = by_slot.row_count();
+  cursor.assign(n, 0);
+  for (std::size_t a = 0; a < n; ++a)
+    for (std::uint32_t k = by_slot.row_start[a]; k < by_slot.row_start[a + 1]; ++k)
+      ++cursor[s.id[a] < s.id[by_slot.partner[k]] ? a : by_slot.partner[k]];
+  exclusive_scan(cursor, by_id.row_start);
+  resize_with_headroom(by_id.partner, by_slot.pair_count());
+  cursor.assign(by_id.row_start.begin(), by_id.row_start.end() - 1);
+  for (std::uint32_t a = 0; a < n; ++a)
+    for (std::uint32_t k = by_slot.row_start[a]; k < by_slot.row_start[a + 1]; ++k) {
+      const std::uint32_t b = by_slot.partner[k];
+      if (s.id[a] < s.id[b])
+        by_id.partner[cursor[a]++] = b;
+      else
+        by_id.partner[cursor[b]++] = a;
+    }
+  parallel_for(n, [&](std::size_t a) {
+    const auto first = by_id.partner.begin() + by_id.row_start[a];
+    const auto last = by_id.partner.begin() + by_id.row_start[a + 1];
+    std::sort(first, last, [&](std::uint32_t p, std::uint32_t q) { return s.id[p] < s.id[q]; });
+  });
+}
+
+
+void rebuild_neighbours(const State& s, const broadphase::CandidatePairs& by_slot, const PairContacts& contacts,
                         NeighbourContacts& nb) {
+  const bool follow_ids = s.slots_follow_ids();
+  if (!follow_ids) orient_by_id(s, by_slot, nb.oriented, nb.cursor);
+  const broadphase::CandidatePairs& candidates = follow_ids ? by_slot : nb.oriented;
   const std::size_t n = candidates.row_count();
   const std::size_t m = candidates.pair_count();
   DEM_ASSERT(n == s.size() && contacts.row_start.size() == n + 1);
@@ -50,14 +92,14 @@ void rebuild_neighbours(const State& s, const broadphase::CandidatePairs& candid
   nb.row_deepest.assign(n, 0);
   nb.row_deepest_slot.assign(n, no_deepest_slot);
   nb.inherited.assign(contacts.size(), 0);
-  // Row a holds the candidates (a, b > a); slots follow ids, so a row of ascending partners is
-  // ascending in key, and so are the contacts of row a in the compact list: a linear merge.
+  // Row a holds the candidates (a, b) with id a < id b by ascending id b, so ascending in key, and so
+  // are the contacts of row a in the compact list: a linear merge.
   parallel_for(n, [&](std::size_t a) {
     std::uint32_t old = contacts.row_start[a];
     const std::uint32_t old_end = contacts.row_start[a + 1];
     for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
       const ParticleIndex b = candidates.partner[k];
-      DEM_ASSERT(s.id[a] < s.id[b]);  // slots follow ids
+      DEM_ASSERT(s.id[a] < s.id[b]);
       list.j[k] = b;
       const std::uint64_t key = pair_key(s.id[a], s.id[b]);
       while (old < old_end && contacts.key[old] < key) ++old;
@@ -72,8 +114,8 @@ void rebuild_neighbours(const State& s, const broadphase::CandidatePairs& candid
       }
     }
   });
-  index_reverse_slots(n, nb);
-  // The contacts left behind, by row (the compact list is in key order, so rows ascend).
+  index_reverse_slots(s, follow_ids, nb);
+  // The contacts left behind, by row (the compact list is in row order).
   nb.left_behind.clear();
   nb.left_key.clear();
   nb.left_dissipated.clear();
@@ -150,7 +192,7 @@ void compact_touching(const State& s, const NeighbourContacts& nb, PairContacts&
       ++slot;
     }
   });
-  DEM_VALIDATE(std::is_sorted(out.key.begin(), out.key.end()));
+  DEM_VALIDATE(keys_ascend_along_rows(out));
 }
 
 }  // namespace dem

@@ -1,6 +1,7 @@
 #pragma once
-// The persistent pair list of the fixed-step Verlet run: one slot per candidate pair, in the
-// candidates' own order (CSR rows by the smaller slot, partners ascending, so keys ascend), each slot
+// The persistent pair list of the fixed-step Verlet run: one slot per candidate pair, in CSR rows by
+// the pair's smaller id (row a: the pairs (a, b) with id a < id b, by ascending id b, so keys ascend
+// along each row; while slots follow ids, these are the broadphase's own rows), each slot
 // carrying the pair's contact history while the pair touches and start values while it does not.
 // Contact history thus lives with the candidate pair: between candidate rebuilds nothing is rebuilt,
 // merged or moved; the force loop tests each slot for overlap and evaluates, starts or ends its
@@ -9,8 +10,10 @@
 // The compact list (PairContacts of the touching pairs only, what outputs, checkpoints, islands and
 // the embedding API read) is made from this one on demand by compact_touching, and this one is made
 // anew from the compact list and new candidates by rebuild_neighbours.
+// Every particle's contacts are summed in the order of its partners' ids, whatever the slots' order:
+// particles re-sorted in memory move the same.
 // Threading: every loop is per row (particle) or per slot, writing only its own slots; the serial
-// passes run in slot (key) order, so results are identical for any thread count.
+// passes run in slot order, so results are identical for any thread count.
 #include <cstdint>
 #include <vector>
 
@@ -27,14 +30,13 @@ inline constexpr std::uint32_t no_deepest_slot = 0xffffffffu;
 enum Touching : std::uint8_t { touching_no = 0, touching_yes = 1, touching_ended = 2 };
 
 struct NeighbourContacts {
-  // One slot per candidate pair: list.row_start is the candidates' row_start and list.j their
-  // partners; a slot's i is its row (slots follow ids, so the row is the pair's smaller id) and it
-  // keeps no key (parts.keyed is false).
+  // One slot per candidate pair: list.row_start and list.j are the candidates' rows and partners
+  // by id; a slot's i is its row (the pair's smaller id) and it keeps no key (parts.keyed is false).
   PairContacts list;
   std::vector<std::uint8_t> touching;      // per slot: Touching
   std::vector<Vec3> moment;                // per slot, with rotation: n x force of the last evaluation, 0 if idle [N]
   // For the gather: the slots in which particle p is j are reverse_slot[reverse_start[p] ..
-  // reverse_start[p + 1]], ascending (so by ascending i); those in which it is i are its own row.
+  // reverse_start[p + 1]], by ascending id of their i; those in which it is i are its own row.
   std::vector<std::uint32_t> reverse_start;
   std::vector<std::uint32_t> reverse_slot;
   std::vector<Real> row_ended;             // per row: what its contacts that ended this step dissipated [J]
@@ -55,14 +57,16 @@ struct NeighbourContacts {
   // slots (a sparse list, such as one contact level's of a multilevel group), unless the last rebuild
   // left contacts behind. The others keep their reset values.
   std::vector<std::uint32_t> visited_rows;
+  broadphase::CandidatePairs oriented;     // the candidates by id, when slots do not follow ids
   std::vector<std::uint8_t> inherited;     // scratch of rebuild_neighbours, per compact contact
   std::vector<std::uint32_t> cursor;       // scratch of rebuild_neighbours, per particle
 
   std::size_t size() const { return list.size(); }
 };
 
-/// Makes `neighbours` from the candidate pairs, each slot inheriting the history of the contact of
-/// `contacts` (compact, key order, row_start indexed) with its key. Contacts that are no longer
+/// Makes `neighbours` from the candidate pairs (a broadphase's, rows by the smaller slot), each slot
+/// inheriting the history of the contact of `contacts` (compact, row order, row_start indexed) with
+/// its key. Contacts that are no longer
 /// candidates end without a release step, as update_pair_contacts ends them: they are listed in
 /// left_behind for the next force loop and finish_ended_contacts, which read them from `contacts`
 /// (it must stay unchanged until then).
@@ -79,7 +83,12 @@ Real finish_ended_contacts(const State& state, NeighbourContacts& neighbours, co
 /// Sets slot k to an idle pair's values: a new contact's history and books, no force, no torque.
 void reset_neighbour(NeighbourContacts& neighbours, std::size_t k);
 
-/// The compact list of the touching slots, in key order, with row_start indexed.
+/// The candidates `by_slot` of a broadphase (rows by the smaller slot) in rows by the smaller id,
+/// partners by ascending id, in `by_id`; `cursor` is scratch.
+void orient_by_id(const State& state, const broadphase::CandidatePairs& by_slot, broadphase::CandidatePairs& by_id,
+                  std::vector<std::uint32_t>& cursor);
+
+/// The compact list of the touching slots, in row order, with row_start indexed.
 void compact_touching(const State& state, const NeighbourContacts& neighbours, PairContacts& contacts,
                       std::vector<std::uint32_t>& scratch);
 

@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "engine/hash_mix.h"
+#include "engine/space_curve.h"
 
 namespace dem {
 namespace {
@@ -152,34 +153,13 @@ GeneratorResult generate_particles(const GeneratorConfig& g, std::vector<Particl
 
 void order_along_curve(std::vector<ParticleConfig>& particles, std::size_t first) {
   if (particles.size() <= first + 1) return;
-  const auto begin = particles.begin() + static_cast<std::ptrdiff_t>(first);
-  Vec3 lo = begin->position, hi = lo;
-  for (auto p = begin; p != particles.end(); ++p) {
-    lo = lo.cwiseMin(p->position);
-    hi = hi.cwiseMax(p->position);
-  }
-  const Real side = (hi - lo).maxCoeff();
-  constexpr int bits = 10;
-  const auto cell = [&](Real x, Real x_lo) {
-    const Real fraction = side > 0 ? (x - x_lo) / side : 0;
-    return static_cast<std::uint32_t>(std::clamp(fraction, Real{0}, Real{1}) * ((1 << bits) - 1));
-  };
-  // The curve's key: the cells' bits interleaved, x lowest.
-  std::vector<std::pair<std::uint32_t, std::size_t>> order;
-  order.reserve(particles.size() - first);
-  for (auto p = begin; p != particles.end(); ++p) {
-    std::uint32_t key = 0;
-    for (int d = 0; d < 3; ++d) {
-      const std::uint32_t c = cell(p->position[d], lo[d]);
-      for (int b = 0; b < bits; ++b) key |= ((c >> b) & 1u) << (3 * b + d);
-    }
-    order.push_back({key, static_cast<std::size_t>(p - begin)});
-  }
-  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Vec3> centres;
+  centres.reserve(particles.size() - first);
+  for (std::size_t q = first; q < particles.size(); ++q) centres.push_back(particles[q].position);
   std::vector<ParticleConfig> sorted;
-  sorted.reserve(order.size());
-  for (const auto& [key, q] : order) sorted.push_back(std::move(begin[static_cast<std::ptrdiff_t>(q)]));
-  std::move(sorted.begin(), sorted.end(), begin);
+  sorted.reserve(centres.size());
+  for (std::uint32_t q : curve_order(centres)) sorted.push_back(std::move(particles[first + q]));
+  std::move(sorted.begin(), sorted.end(), particles.begin() + static_cast<std::ptrdiff_t>(first));
 }
 
 }  // namespace dem

@@ -66,6 +66,7 @@ const std::vector<SceneKey> schema = {
     {"output.interval", "s"}, {"output.snapshot_interval", "s"}, {"output.settled_file", ""},
     {"output.trajectories", ""}, {"output.contacts", ""}, {"output.vtk_format", ""},
     {"broadphase.skin", "m"}, {"broadphase.kind", ""}, {"broadphase.wall_lists", ""},
+    {"broadphase.sort_interval", ""},
     {"accuracy.metrics", ""}};
 
 

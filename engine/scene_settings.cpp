@@ -80,6 +80,10 @@ void read_run_and_output(TableReader& top, Scene& scene) {
     if (r.has("skin")) scene.world.broadphase.skin = r.non_negative("skin", 0);
     scene.world.broadphase.use_kd_tree = r.choice("kind", {"grid", "kd_tree"}, 0) == 1;
     scene.world.broadphase.wall_lists = r.boolean("wall_lists", true);
+    const int sort_interval = r.integer("sort_interval", scene.world.broadphase.sort_interval);
+    if (sort_interval < 0) r.fail("sort_interval", "must be a number of steps >= 0 (0: never re-sort), got " +
+                                                       std::to_string(sort_interval));
+    scene.world.broadphase.sort_interval = sort_interval;
     r.finish();
   }
 }

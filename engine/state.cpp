@@ -1,7 +1,10 @@
 #include "engine/state.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
+
+#include "engine/checks.h"
 
 namespace dem {
 
@@ -47,5 +50,19 @@ void State::remove(ParticleIndex slot) {
   erase(radius), erase(inv_mass), erase(inv_inertia), erase(material), erase(level);
   for (std::size_t s = slot; s < id.size(); ++s) index_of_id[id[s]] = static_cast<ParticleIndex>(s);
 }
+
+void State::permute(const std::vector<std::uint32_t>& order) {
+  DEM_ASSERT(order.size() == size());
+  // In place: the arrays keep their storage (embedding programs hold views of it).
+  const auto reorder = [&order](auto& v) {
+    const auto before = v;
+    for (std::size_t q = 0; q < order.size(); ++q) v[q] = before[order[q]];
+  };
+  reorder(id), reorder(position), reorder(velocity), reorder(angular_velocity), reorder(force), reorder(torque);
+  reorder(radius), reorder(inv_mass), reorder(inv_inertia), reorder(material), reorder(level);
+  for (std::size_t q = 0; q < id.size(); ++q) index_of_id[id[q]] = static_cast<ParticleIndex>(q);
+}
+
+bool State::slots_follow_ids() const { return std::is_sorted(id.begin(), id.end()); }
 
 }  // namespace dem

@@ -1,7 +1,8 @@
 #pragma once
 // Per-particle state as a structure of arrays (docs/design.md, State). Hot arrays are one std::vector per
 // field; a stage touches only those it needs. `id` holds the stable ParticleId of each slot and
-// `index_of_id` the inverse map; both change only in functions of this file.
+// `index_of_id` the inverse map; both change only in functions of this file. Slots are in id order
+// until permute() puts them in another (a fixed-step run keeps them in space order).
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -32,8 +33,9 @@ struct State {
   /// Appends one particle with the next free id and returns its slot.
   ParticleIndex add(const Vec3& x, const Vec3& v, const Vec3& w, Real r, Real inv_m, Real inv_i,
                     std::uint16_t mat);
-  /// The same with a given id, which must be next_id() or larger (slots stay in id order, ids are
-  /// never reused); the ids skipped map to removed_slot. Throws std::invalid_argument otherwise.
+  /// The same with a given id, which must be next_id() or larger (ids are never reused; the new
+  /// particle, with the largest id, takes the last slot); the ids skipped map to removed_slot.
+  /// Throws std::invalid_argument otherwise.
   ParticleIndex add(ParticleId given_id, const Vec3& x, const Vec3& v, const Vec3& w, Real r, Real inv_m,
                     Real inv_i, std::uint16_t mat);
   /// The id add() gives next: one past the largest id ever given.
@@ -41,9 +43,14 @@ struct State {
   /// Reserves room for n particles in every array (a scene's particles, added one by one, would
   /// otherwise leave the arrays up to twice their size).
   void reserve(std::size_t n);
-  /// Removes the particle in `slot`; later slots move down by one, so slots stay in id order, and
-  /// its id maps to removed_slot from then on.
+  /// Removes the particle in `slot`; later slots move down by one, so the others keep their order,
+  /// and its id maps to removed_slot from then on.
   void remove(ParticleIndex slot);
+  /// Moves the particle in slot order[q] to slot q for every q (`order` is a permutation of the
+  /// slots), each array with it, and updates index_of_id: ids stay with their particles.
+  void permute(const std::vector<std::uint32_t>& order);
+  /// True when ids ascend along the slots (as add and remove keep them, until a permute).
+  bool slots_follow_ids() const;
 };
 
 /// Mass treated as infinite in momentum and energy audits (docs/physics.md 1.3: a 1e20 kg "wall" swamps

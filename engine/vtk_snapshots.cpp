@@ -10,22 +10,27 @@ ParticleSnapshot particle_snapshot(const World& world) {
   const PairContacts& pairs = world.pair_contacts();
   const WallContacts& walls = world.wall_contacts();
   ParticleSnapshot snap;
-  const std::size_t n = s.size();
-  snap.id.assign(s.id.begin(), s.id.end());
-  snap.position.assign(s.position.begin(), s.position.end());
-  snap.velocity.assign(s.velocity.begin(), s.velocity.end());
-  snap.angular_velocity.assign(s.angular_velocity.begin(), s.angular_velocity.end());
-  snap.radius.assign(s.radius.begin(), s.radius.end());
-  snap.level.assign(s.level.begin(), s.level.end());
-  snap.force.assign(s.force.begin(), s.force.end());
-  snap.torque.assign(s.torque.begin(), s.torque.end());
-  snap.material.assign(s.material.begin(), s.material.end());
-  snap.coordination.assign(n, 0);
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    ++snap.coordination[pairs.i[k]];
-    ++snap.coordination[pairs.j[k]];
+  // Points in id order, whatever order the slots are in.
+  std::vector<std::uint32_t> point_of_slot(s.size());
+  for (const ParticleIndex p : s.index_of_id) {
+    if (p == removed_slot) continue;
+    point_of_slot[p] = static_cast<std::uint32_t>(snap.id.size());
+    snap.id.push_back(s.id[p]);
+    snap.position.push_back(s.position[p]);
+    snap.velocity.push_back(s.velocity[p]);
+    snap.angular_velocity.push_back(s.angular_velocity[p]);
+    snap.radius.push_back(s.radius[p]);
+    snap.level.push_back(s.level[p]);
+    snap.force.push_back(s.force[p]);
+    snap.torque.push_back(s.torque[p]);
+    snap.material.push_back(s.material[p]);
   }
-  for (std::size_t k = 0; k < walls.size(); ++k) ++snap.coordination[walls.particle[k]];
+  snap.coordination.assign(s.size(), 0);
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    ++snap.coordination[point_of_slot[pairs.i[k]]];
+    ++snap.coordination[point_of_slot[pairs.j[k]]];
+  }
+  for (std::size_t k = 0; k < walls.size(); ++k) ++snap.coordination[point_of_slot[walls.particle[k]]];
   for (std::size_t m = 0; m < world.materials().material_count(); ++m) {
     snap.material_names.push_back(world.materials().name(static_cast<std::uint16_t>(m)));
   }
@@ -58,13 +63,13 @@ ContactSnapshot contact_snapshot(const World& world) {
   const PairContacts& pairs = world.pair_contacts();
   const WallContacts& walls = world.wall_contacts();
   ContactSnapshot c;
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
+  for (std::uint32_t k : key_order(pairs.key)) {
     const ParticleIndex i = pairs.i[k], j = pairs.j[k];
     // The force is on i, the normal from j to i as the force loop computes it.
     add_contact(c, s.position[i], s.position[j], s.id[i], s.id[j], -1, pair_normal(s, i, j).n, pairs.force[k],
                 pairs.overlap[k]);
   }
-  for (std::size_t k = 0; k < walls.size(); ++k) {
+  for (std::uint32_t k : key_order(walls.key)) {
     const ParticleIndex p = walls.particle[k];
     const Vec3 d = s.position[p] - walls.point[k];
     const Real distance = d.norm();

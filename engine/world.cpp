@@ -10,6 +10,7 @@
 #include "engine/exact_stepper.h"
 #include "engine/integrators.h"
 #include "engine/parallel.h"
+#include "engine/space_curve.h"
 
 namespace dem {
 namespace {
@@ -138,6 +139,10 @@ void World::evaluate_neighbour_forces(Real h, bool force_rebuild) {
     const Real reach = max_free_displacement(state_, gravity_, scheduler_.sync_interval());
     candidate_skin_ = std::clamp(2 * skin_steps * reach, skin_, 10 * skin_);
   }
+  const int sort_interval = config_.broadphase.sort_interval;
+  // Candidates and the skin check's reference positions are per slot: a sort comes just before a rebuild.
+  if (rebuild && sort_interval > 0 && (sorted_at_ < 0 || clock_.interval - sorted_at_ >= sort_interval))
+    sort_particles();
   if (rebuild) rebuild_candidates();
   if (rebuild || neighbours_stale_) {
     sync_pair_contacts();
@@ -181,6 +186,32 @@ World::Culprit World::deepest_contact_now() const {
   // it has not seen yet (a checkpoint, a particle added or removed) the compact list is current.
   if (persistent_pairs_ && !neighbours_stale_) return deepest_contact(state_, neighbours_, wall_contacts_);
   return deepest_contact(state_, pair_contacts(), wall_contacts_);
+}
+
+void World::sort_particles() {
+  permute_particles(curve_order(state_.position));
+  sorted_at_ = static_cast<std::int64_t>(clock_.interval);
+}
+
+void World::restore_id_order() {
+  if (state_.slots_follow_ids()) return;
+  std::vector<std::uint32_t> order(state_.size());
+  std::uint32_t q = 0;
+  for (ParticleIndex slot : state_.index_of_id)
+    if (slot != removed_slot) order[q++] = slot;
+  permute_particles(order);
+}
+
+void World::permute_particles(const std::vector<std::uint32_t>& order) {
+  // The compact list is current from here on, and the persistent list, in the old slots, is stale.
+  sync_pair_contacts();
+  pair_contacts_changed();
+  state_.permute(order);
+  std::vector<std::uint32_t> new_of_old(order.size());
+  for (std::size_t q = 0; q < order.size(); ++q) new_of_old[order[q]] = static_cast<std::uint32_t>(q);
+  dem::permute_particles(pairs_, new_of_old, workspace_.pairs);
+  dem::permute_particles(wall_contacts_, new_of_old, workspace_.walls);
+  wall_lists_.clear();  // per slot: made anew at the next evaluation
 }
 
 void World::rebuild_candidates() {

@@ -3,7 +3,8 @@
 // One sync interval (fixed control, velocity Verlet), top to bottom in world.cpp:
 //   kick (v += h/2 a)  ->  drift (x += h v)  ->  walls to t + h
 //   -> skin check, rebuild candidate pairs if any particle moved more than skin/2 (and with them the
-//      persistent pair list, history inherited by key: neighbour_contacts.h)
+//      persistent pair list, history inherited by key: neighbour_contacts.h), first re-sorting the
+//      particles in memory along a space-filling curve when broadphase.sort_interval steps have passed
 //   -> pair forces slot by slot (contacts start and end in place) -> wall contacts and forces
 //   -> gather per particle -> kick (v += h/2 a) -> finite-state check
 // All parallel loops run inside the World's own TaskArena (engine/parallel.h: oneTBB, or std::threads
@@ -275,6 +276,13 @@ class World {
     return {config_.integrator.predicted_dashpot, gravity_, config_.model.dimension};
   }
   void rebuild_candidates();
+  /// Re-sorts the particles in memory along a space-filling curve (fixed-step Verlet, at a candidate
+  /// rebuild); the contact lists follow.
+  void sort_particles();
+  /// Puts the slots back in id order (a start under a control that needs it).
+  void restore_id_order();
+  /// Permutes the particles to `order` (State::permute), the compact contact lists with them.
+  void permute_particles(const std::vector<std::uint32_t>& order);
   void step_exact(Real h);
   /// Takes a read and checked checkpoint's particles, contacts, books and neighbour lists
   /// (checkpoint.cpp); the clock, counters and levels are the caller's.
@@ -333,6 +341,7 @@ class World {
   RunCounters counters_;
   Real ended_dissipation_ = 0;  // dissipated by contacts that have ended [J]
   Real candidate_skin_ = 0;     // skin of the current candidate list [m] (the exact stepper widens it)
+  std::int64_t sorted_at_ = -1;  // the sync interval of the last sort_particles; -1: none yet
   ExactWorkspace exact_work_;
   Real wall_work_ = 0;          // work of the walls on the particles [J]
   bool walls_move_ = false;     // any wall with prescribed velocity

@@ -2,7 +2,7 @@
 // callback at sync times, reading particles by stable id and contact forces, and feeding and
 // discharging particles between sync intervals.
 // A population change, top to bottom:
-//   State::add / State::remove (slots stay in id order, ids are never reused)
+//   State::add / State::remove (the others keep their slots' order, ids are never reused)
 //   -> the removed particle's contacts dropped from both lists, the slots above it renumbered
 //      (keys and history of every other contact untouched)
 //   -> contact rows and the gather adjacency rebuilt -> per-particle forces re-summed from the
@@ -61,7 +61,7 @@ std::vector<ContactForce> World::contact_forces() const {
   std::vector<ContactForce> out;
   out.reserve(pairs_.size() + wall_contacts_.size());
   const State& s = state_;
-  for (std::size_t k = 0; k < pairs_.size(); ++k) {
+  for (std::uint32_t k : key_order(pairs_.key)) {
     const ParticleIndex i = pairs_.i[k], j = pairs_.j[k];
     // The contact point of the force loop (forces.cpp): mid-overlap on the line of centres.
     const Vec3 d = s.position[i] - s.position[j];
@@ -75,7 +75,7 @@ std::vector<ContactForce> World::contact_forces() const {
     c.overlap = pairs_.overlap[k];
     out.push_back(c);
   }
-  for (std::size_t k = 0; k < wall_contacts_.size(); ++k) {
+  for (std::uint32_t k : key_order(wall_contacts_.key)) {
     ContactForce c;
     c.particle = c.partner = s.id[wall_contacts_.particle[k]];
     c.wall = static_cast<int>(wall_contacts_.wall[k]);
@@ -97,7 +97,8 @@ std::vector<ParticleConfig> World::particles() const {
   std::vector<ParticleConfig> out;
   out.reserve(state_.size());
   const auto by_id = [](const ParticleConfig& c, ParticleId id) { return *c.id < id; };
-  for (std::size_t p = 0; p < state_.size(); ++p) {  // slots are in id order
+  for (const ParticleIndex p : state_.index_of_id) {  // in id order
+    if (p == removed_slot) continue;
     ParticleConfig c;
     c.id = state_.id[p];
     c.position = state_.position[p];

@@ -70,8 +70,7 @@ Real run_audited_balance(World& w, Real until) {
 PairEnd run_pair(const WorldConfig& c, Real until) {
   World w(c);
   const Real worst = run_audited_balance(w, until);
-  const State& s = w.state();
-  return {s.velocity[0], s.velocity[1], s.angular_velocity[0], s.angular_velocity[1], worst};
+  return {w.velocity(0), w.velocity(1), w.angular_velocity(0), w.angular_velocity(1), worst};
 }
 
 /// Largest difference between two ends, velocities in m/s and spins times the radius (m/s).

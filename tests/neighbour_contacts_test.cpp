@@ -335,7 +335,10 @@ TEST(NeighbourContacts, WorldAgreesWithTheCompactListOnTheDenseBed) {
       if ((s.position[a] - s.position[b]).squaredNorm() < reach * reach)
         expected.insert(pair_key(s.id[a], s.id[b]));
     }
-  EXPECT_TRUE(std::is_sorted(pairs.key.begin(), pairs.key.end()));
+  EXPECT_FALSE(s.slots_follow_ids()) << "the fixed step keeps the bed in space order";
+  EXPECT_TRUE(std::is_sorted(pairs.i.begin(), pairs.i.end())) << "row order";
+  EXPECT_TRUE(keys_ascend_along_rows(pairs));
+  for (std::size_t k = 0; k < pairs.size(); ++k) ASSERT_LT(s.id[pairs.i[k]], s.id[pairs.j[k]]);
   EXPECT_EQ(std::set<std::uint64_t>(pairs.key.begin(), pairs.key.end()), expected);
 
   ContactAdjacency adjacency;

@@ -45,7 +45,8 @@ Sample sample_of(const World& world, bool trajectory, const Vec3& up, const Base
   s.time = world.time();
   const State& st = world.state();
   if (trajectory)
-    for (std::size_t p = 0; p < st.size(); ++p) {  // slots are in id order
+    for (const ParticleIndex p : st.index_of_id) {  // in id order
+      if (p == removed_slot) continue;
       s.position.push_back(st.position[p]);
       s.velocity.push_back(st.velocity[p]);
     }
@@ -106,10 +107,13 @@ void perturb(WorldConfig& config, std::uint64_t seed) {
 void perturb(World& world, std::uint64_t seed) {
   const int dims = world.config().model.dimension == 2 ? 2 : 3;
   const State& st = world.state();
-  for (std::size_t p = 0; p < st.size(); ++p) {  // slots are in id order
+  std::uint64_t q = 0;  // the particle's place in id order, whatever order the slots are in
+  for (const ParticleIndex p : st.index_of_id) {
+    if (p == removed_slot) continue;
     Vec3 v = st.velocity[p];
-    for (int k = 0; k < dims; ++k) v[k] *= 1 + 1e-9 * draw(seed, p, static_cast<std::uint64_t>(k));
+    for (int k = 0; k < dims; ++k) v[k] *= 1 + 1e-9 * draw(seed, q, static_cast<std::uint64_t>(k));
     world.set_velocity(st.id[p], v);
+    ++q;
   }
 }
 

@@ -49,7 +49,8 @@ std::vector<double> series_row(const World& world) {
 
 void append_trajectories(SeriesWriter& out, const World& world) {
   const State& s = world.state();
-  for (std::size_t p = 0; p < s.size(); ++p) {  // slots are in id order
+  for (const ParticleIndex p : s.index_of_id) {  // in id order
+    if (p == removed_slot) continue;
     const Vec3 &x = s.position[p], &v = s.velocity[p], &w = s.angular_velocity[p];
     out.append({world.time(), static_cast<double>(s.id[p]), x.x(), x.y(), x.z(), v.x(), v.y(), v.z(), w.x(), w.y(), w.z()});
   }
