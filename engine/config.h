@@ -151,10 +151,10 @@ struct BroadphaseConfig {
   Real skin = -1;       // neighbour skin [m]; negative: 10% of the smallest radius
   bool use_kd_tree = false;  // k-d tree instead of the grid (wide size ranges)
   bool wall_lists = true;    // per-particle lists of the walls within reach (wall_lists.h)
-  // Fixed-step velocity Verlet: the particles are re-sorted in memory along a space-filling curve
-  // at the first candidate rebuild and then at the first one at least this many steps after the
-  // last re-sort; 0: never (slots stay in id order). Results are the same bits either way.
-  int sort_interval = 1000;
+  // Fixed-step velocity Verlet: the particles are re-sorted in memory by spatial bins at the first
+  // candidate rebuild and then at the first one at least this many steps after the last re-sort;
+  // 0: never (slots stay in id order). Particles move the same bits either way.
+  int sort_interval = 0;
 };
 
 struct WorldConfig {

@@ -18,8 +18,8 @@ void reset_neighbour(NeighbourContacts& nb, std::size_t k) {
 namespace {
 
 // Row a lists the slots in which a is i; the slots in which p is j are collected here, walking the
-// rows in slot order, then put in the order of their rows' ids (which is slot order while slots
-// follow ids), so that the gather sums every particle's contacts in partner id order.
+// rows in id order (slot order while slots follow ids), so that they come by ascending id of their
+// row and the gather sums every particle's contacts in partner id order.
 void index_reverse_slots(const State& s, bool follow_ids, NeighbourContacts& nb) {
   const PairContacts& c = nb.list;
   const std::size_t n = s.size();
@@ -29,18 +29,16 @@ void index_reverse_slots(const State& s, bool follow_ids, NeighbourContacts& nb)
   exclusive_scan(cursor, nb.reverse_start);
   resize_with_headroom(nb.reverse_slot, c.size());
   cursor.assign(nb.reverse_start.begin(), nb.reverse_start.end() - 1);
-  for (std::size_t k = 0; k < c.size(); ++k) nb.reverse_slot[cursor[c.j[k]]++] = static_cast<std::uint32_t>(k);
-  if (follow_ids) return;
-  // The row of slot k is the one whose range holds it.
-  const auto row_id = [&](std::uint32_t k) {
-    const auto row = std::upper_bound(c.row_start.begin(), c.row_start.end(), k) - c.row_start.begin() - 1;
-    return s.id[static_cast<std::size_t>(row)];
+  const auto add_row = [&](std::size_t a) {
+    for (std::uint32_t k = c.row_start[a]; k < c.row_start[a + 1]; ++k) nb.reverse_slot[cursor[c.j[k]]++] = k;
   };
-  parallel_for(n, [&](std::size_t p) {
-    const auto first = nb.reverse_slot.begin() + nb.reverse_start[p];
-    const auto last = nb.reverse_slot.begin() + nb.reverse_start[p + 1];
-    std::sort(first, last, [&](std::uint32_t a, std::uint32_t b) { return row_id(a) < row_id(b); });
-  });
+  if (follow_ids) {
+    for (std::size_t a = 0; a < n; ++a) add_row(a);
+    return;
+  }
+  DEM_ASSERT(s.index_of_id.size() >= n);
+  for (const ParticleIndex a : s.index_of_id)
+    if (a != removed_slot) add_row(a);
 }
 
 }  // namespace

@@ -8,7 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "engine/hash_mix.h"
-#include "engine/space_curve.h"
+#include "engine/spatial_order.h"
 
 namespace dem {
 namespace {

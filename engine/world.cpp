@@ -10,7 +10,7 @@
 #include "engine/exact_stepper.h"
 #include "engine/integrators.h"
 #include "engine/parallel.h"
-#include "engine/space_curve.h"
+#include "engine/spatial_order.h"
 
 namespace dem {
 namespace {
@@ -189,7 +189,10 @@ World::Culprit World::deepest_contact_now() const {
 }
 
 void World::sort_particles() {
-  permute_particles(curve_order(state_.position));
+  // Bins of the largest diameter, as the grid broadphase's cells: a particle's partners lie in its
+  // own bin and the next ones, so a sweep through the bins keeps them near in memory.
+  const Real r_max = state_.size() > 0 ? *std::max_element(state_.radius.begin(), state_.radius.end()) : 0;
+  permute_particles(bin_order(state_.position, 2 * r_max));
   sorted_at_ = static_cast<std::int64_t>(clock_.interval);
 }
 

@@ -4,7 +4,7 @@
 //   kick (v += h/2 a)  ->  drift (x += h v)  ->  walls to t + h
 //   -> skin check, rebuild candidate pairs if any particle moved more than skin/2 (and with them the
 //      persistent pair list, history inherited by key: neighbour_contacts.h), first re-sorting the
-//      particles in memory along a space-filling curve when broadphase.sort_interval steps have passed
+//      particles in memory by spatial bins when broadphase.sort_interval steps have passed
 //   -> pair forces slot by slot (contacts start and end in place) -> wall contacts and forces
 //   -> gather per particle -> kick (v += h/2 a) -> finite-state check
 // All parallel loops run inside the World's own TaskArena (engine/parallel.h: oneTBB, or std::threads
@@ -276,8 +276,8 @@ class World {
     return {config_.integrator.predicted_dashpot, gravity_, config_.model.dimension};
   }
   void rebuild_candidates();
-  /// Re-sorts the particles in memory along a space-filling curve (fixed-step Verlet, at a candidate
-  /// rebuild); the contact lists follow.
+  /// Re-sorts the particles in memory by spatial bins (fixed-step Verlet, at a candidate rebuild);
+  /// the contact lists follow.
   void sort_particles();
   /// Puts the slots back in id order (a start under a control that needs it).
   void restore_id_order();

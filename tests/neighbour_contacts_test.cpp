@@ -318,7 +318,9 @@ TEST(NeighbourContacts, DeepestOverlapBeforeTheNextStepAfterARemoval) {
 // anew by the grid with no skin), and the forces, torques and deepest overlap the World derived
 // from its persistent list are those the compact-list routines give, bit for bit.
 TEST(NeighbourContacts, WorldAgreesWithTheCompactListOnTheDenseBed) {
-  const std::unique_ptr<World> world = World::load(scene("dense_bed.toml"), {"run.threads=2"});
+  // Re-sorted in memory, so that the lists' orders by id and by slot differ.
+  const std::unique_ptr<World> world =
+      World::load(scene("dense_bed.toml"), {"run.threads=2", "broadphase.sort_interval=1000"});
   for (int step = 0; step < 60; ++step) ASSERT_EQ(world->advance_sync_interval(), StepStatus::ok);
   const State& s = world->state();
   const PairContacts& pairs = world->pair_contacts();
@@ -335,7 +337,7 @@ TEST(NeighbourContacts, WorldAgreesWithTheCompactListOnTheDenseBed) {
       if ((s.position[a] - s.position[b]).squaredNorm() < reach * reach)
         expected.insert(pair_key(s.id[a], s.id[b]));
     }
-  EXPECT_FALSE(s.slots_follow_ids()) << "the fixed step keeps the bed in space order";
+  EXPECT_FALSE(s.slots_follow_ids()) << "re-sorted";
   EXPECT_TRUE(std::is_sorted(pairs.i.begin(), pairs.i.end())) << "row order";
   EXPECT_TRUE(keys_ascend_along_rows(pairs));
   for (std::size_t k = 0; k < pairs.size(); ++k) ASSERT_LT(s.id[pairs.i[k]], s.id[pairs.j[k]]);
