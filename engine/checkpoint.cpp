@@ -377,8 +377,8 @@ void World::take_checkpoint(CheckpointContents& c) {
   candidates_ = std::move(c.candidates);
   skin_tracker_.reset(c.reference);
   if (!persistent_pairs_ && !state_.slots_follow_ids()) {
-    // Saved by a fixed-step Verlet run, which keeps the particles in space order; this run keeps
-    // them in id order.
+    // Saved by a fixed-step Verlet run that re-sorted its particles in space; this run keeps them
+    // in id order.
     restore_id_order();
     arena_->execute([&] { rebuild_candidates(); });
   }

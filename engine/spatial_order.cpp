@@ -1,17 +1,27 @@
 #include "engine/spatial_order.h"
 
 #include <algorithm>
+#include <utility>
 
 namespace dem {
+namespace {
 
-std::vector<std::uint32_t> curve_order(std::span<const Vec3> points) {
-  std::vector<std::uint32_t> order(points.size());
-  if (points.empty()) return order;
+/// The smallest and the largest coordinates of non-empty `points`, per axis.
+std::pair<Vec3, Vec3> bounding_box(std::span<const Vec3> points) {
   Vec3 lo = points[0], hi = lo;
   for (const Vec3& x : points) {
     lo = lo.cwiseMin(x);
     hi = hi.cwiseMax(x);
   }
+  return {lo, hi};
+}
+
+}  // namespace
+
+std::vector<std::uint32_t> curve_order(std::span<const Vec3> points) {
+  std::vector<std::uint32_t> order(points.size());
+  if (points.empty()) return order;
+  const auto [lo, hi] = bounding_box(points);
   const Real side = (hi - lo).maxCoeff();
   constexpr int bits = 10;
   const auto cell = [&](Real x, Real x_lo) {
@@ -36,11 +46,7 @@ std::vector<std::uint32_t> curve_order(std::span<const Vec3> points) {
 std::vector<std::uint32_t> bin_order(std::span<const Vec3> points, Real bin) {
   std::vector<std::uint32_t> order(points.size());
   if (points.empty()) return order;
-  Vec3 lo = points[0], hi = lo;
-  for (const Vec3& x : points) {
-    lo = lo.cwiseMin(x);
-    hi = hi.cwiseMax(x);
-  }
+  const auto [lo, hi] = bounding_box(points);
   constexpr Real max_bins = Real(1 << 21);  // per axis: three axes fit a 64-bit key
   const Real side = std::max({bin, (hi - lo).maxCoeff() / (max_bins - 1), Real{1e-300}});
   const auto bins_along = [&](int d) { return static_cast<std::uint64_t>((hi[d] - lo[d]) / side) + 1; };

@@ -2,7 +2,7 @@
 // Per-particle state as a structure of arrays (docs/design.md, State). Hot arrays are one std::vector per
 // field; a stage touches only those it needs. `id` holds the stable ParticleId of each slot and
 // `index_of_id` the inverse map; both change only in functions of this file. Slots are in id order
-// until permute() puts them in another (a fixed-step run keeps them in space order).
+// until permute() puts them in another (a fixed-step run may re-sort them in space).
 #include <cstdint>
 #include <limits>
 #include <vector>

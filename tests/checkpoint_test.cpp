@@ -133,7 +133,7 @@ TEST(Checkpoint, StartUnderTheSameSettingsFollowsTheStraightRun) {
 TEST(Checkpoint, StartUnderStepDoublingGoesOnFromTheFixedStepsState) {
   WorldConfig config = test::falling_box_scene(3, 3, 3, 9);
   for (std::size_t p = 0; p < config.particles.size(); p += 3) config.particles[p].radius = 0.0015;  // light ones
-  config.broadphase.sort_interval = 1000;  // the fixed step keeps its particles in space order
+  config.broadphase.sort_interval = 1000;  // the fixed step re-sorts its particles in space
   constexpr int n = 5000;  // of 2e-5 s: the pile is forming
   World fixed(config);
   for (int s = 0; s < n; ++s) ASSERT_EQ(fixed.advance_sync_interval(), StepStatus::ok);
@@ -155,7 +155,7 @@ TEST(Checkpoint, StartUnderStepDoublingGoesOnFromTheFixedStepsState) {
   EXPECT_EQ(started.state_hash() == fixed.state_hash(), false) << "the clocks differ";
   const State& s0 = started.state();
   EXPECT_TRUE(s0.slots_follow_ids()) << "step doubling keeps slots in id order";
-  EXPECT_FALSE(fixed.state().slots_follow_ids()) << "the fixed step kept them in space order";
+  EXPECT_FALSE(fixed.state().slots_follow_ids()) << "the fixed step re-sorted them";
   for (std::size_t p = 0; p < s0.size(); ++p) {
     ASSERT_EQ(s0.position[p], fixed.position(s0.id[p]));
     ASSERT_EQ(s0.velocity[p], fixed.velocity(s0.id[p]));

@@ -35,7 +35,7 @@ std::string number(double v) {
 }
 
 /// The ids of the last particle snapshot of a run (particles_<n>.vtp with the largest n).
-/// A copy of `s` with its slots in id order (a fixed-step run keeps them in space order).
+/// A copy of `s` with its slots in id order (a fixed-step run may re-sort them in space).
 dem::State in_id_order(const dem::State& s) {
   std::vector<std::uint32_t> order;
   for (const dem::ParticleIndex p : s.index_of_id)

@@ -16,6 +16,7 @@
 #include "broadphase/candidate_pairs.h"
 #include "engine/neighbour_contacts.h"
 #include "engine/scene_loader.h"
+#include "engine/spatial_order.h"
 #include "engine/state.h"
 #include "engine/world.h"
 #include "test_scenes.h"
@@ -114,6 +115,31 @@ WorldConfig falling_box(int sort_interval) {
   c.collision_spectra = true;
   c.broadphase.sort_interval = sort_interval;
   return c;
+}
+
+TEST(ParticleSort, BinOrderSweepsTheBinsRowByRowXFastest) {
+  // A 3 x 3 x 3 lattice of spacing 1, shuffled, in bins of 1: the lattice comes back x fastest, then
+  // y, then z; two points in one bin keep their index order.
+  std::vector<Vec3> points;
+  for (int k = 0; k < 27; ++k) points.push_back(Vec3((k * 7) % 3, (k * 7) / 3 % 3, (k * 7) / 9 % 3) + Vec3::Constant(0.1));
+  points.push_back(points[5] + Vec3::Constant(0.2));  // index 27, the bin of index 5
+  const std::vector<std::uint32_t> order = bin_order(points, 1.0);
+  ASSERT_EQ(order.size(), points.size());
+  std::vector<Vec3> swept;
+  for (std::uint32_t q : order) swept.push_back(points[q].array().floor().matrix());
+  std::size_t at = 0;
+  for (int z = 0; z < 3; ++z)
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 3; ++x) {
+        ASSERT_EQ(swept[at], Vec3(x, y, z)) << "place " << at;
+        at += swept[at] == points[5].array().floor().matrix() ? 2 : 1;  // the shared bin holds two
+      }
+  const auto five = std::find(order.begin(), order.end(), 5u);
+  ASSERT_NE(five + 1, order.end());
+  EXPECT_EQ(*(five + 1), 27u) << "ties in index order";
+  // Far-flung points: the bins grow so that no axis needs more than 2^21 of them, and order still holds.
+  const std::vector<Vec3> far = {Vec3(1e9, 0, 0), Vec3(0, 0, 0), Vec3(5e8, 0, 0)};
+  EXPECT_EQ(bin_order(far, 1e-3), (std::vector<std::uint32_t>{1, 2, 0}));
 }
 
 struct SortCase {
