@@ -68,7 +68,6 @@ void orient_by_id(const State& s, const broadphase::CandidatePairs& by_slot, bro
   });
 }
 
-
 void rebuild_neighbours(const State& s, const broadphase::CandidatePairs& by_slot, const PairContacts& contacts,
                         NeighbourContacts& nb) {
   const bool follow_ids = s.slots_follow_ids();
