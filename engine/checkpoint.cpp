@@ -376,6 +376,7 @@ void World::take_checkpoint(CheckpointContents& c) {
   wall_contacts_ = std::move(c.walls);
   candidates_ = std::move(c.candidates);
   skin_tracker_.reset(c.reference);
+  wall_lists_.clear();  // per slot, and the checkpoint's slots may hold other particles than this world's
   if (!persistent_pairs_ && !state_.slots_follow_ids()) {
     // Saved by a fixed-step Verlet run that re-sorted its particles in space; this run keeps them
     // in id order.

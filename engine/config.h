@@ -107,8 +107,8 @@ struct WallConfig {
 
 struct ParticleConfig {
   // Stable id (what outputs and contact keys use). Nothing: the next id after the largest given so
-  // far. A World takes particles in config order and slots follow ids, so given ids must increase
-  // along WorldConfig::particles (the scene loader sorts them).
+  // far. A World adds particles in config order, each id above the last, so given ids must
+  // increase along WorldConfig::particles (the scene loader sorts them).
   std::optional<ParticleId> id;
   Vec3 position = Vec3::Zero();          // [m]
   Vec3 velocity = Vec3::Zero();          // [m/s]

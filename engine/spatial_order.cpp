@@ -46,6 +46,11 @@ std::vector<std::uint32_t> curve_order(std::span<const Vec3> points) {
 std::vector<std::uint32_t> bin_order(std::span<const Vec3> points, Real bin) {
   std::vector<std::uint32_t> order(points.size());
   if (points.empty()) return order;
+  // A run about to stop on a non-finite state: leave the order (a NaN has no bin).
+  if (!std::all_of(points.begin(), points.end(), [](const Vec3& x) { return x.allFinite(); })) {
+    for (std::size_t q = 0; q < order.size(); ++q) order[q] = static_cast<std::uint32_t>(q);
+    return order;
+  }
   const auto [lo, hi] = bounding_box(points);
   constexpr Real max_bins = Real(1 << 21);  // per axis: three axes fit a 64-bit key
   const Real side = std::max({bin, (hi - lo).maxCoeff() / (max_bins - 1), Real{1e-300}});

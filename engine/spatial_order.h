@@ -18,7 +18,7 @@ std::vector<std::uint32_t> curve_order(std::span<const Vec3> points);
 /// The indices 0 .. n-1 of `points` by the cubic bin of side `bin` [m] that holds them, bins in
 /// row-major order over the points' bounding box (x fastest, then y, then z), ties in index order:
 /// a sweep through the bins, as a grid broadphase takes them. The bin grows where the box would need
-/// more than 2^21 bins along an axis.
+/// more than 2^21 bins along an axis. With a non-finite coordinate among the points: 0 .. n-1.
 std::vector<std::uint32_t> bin_order(std::span<const Vec3> points, Real bin);
 
 }  // namespace dem

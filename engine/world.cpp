@@ -103,8 +103,8 @@ void World::add_particles() {
     }
     if (p.id && *p.id < state_.next_id())
       throw std::invalid_argument("particle " + std::to_string(i) + " has id " + std::to_string(*p.id) +
-                                  ", not above the ids before it: slots follow ids, so given ids must increase along "
-                                  "config.particles");
+                                  ", not above the ids before it: particles are added in id order, so given ids must "
+                                  "increase along config.particles");
     const ParticleIndex slot = state_.add(p.id.value_or(state_.next_id()), x, v, w, p.radius, inv_mass, inv_inertia,
                                           static_cast<std::uint16_t>(mat));
     p.id = state_.id[slot];  // so particles() finds each particle's config by its id
@@ -361,10 +361,10 @@ Vec3 World::linear_momentum() const {
 
 World::Culprit World::fastest_particle() const {
   Culprit c;
-  for (std::size_t p = 0; p < state_.size(); ++p) {
-    const Real v = state_.velocity[p].norm();
-    if (!(v <= c.value)) c = {state_.id[p], state_.id[p], v};  // NaN wins: it is the culprit
-  }
+  // Culprit::worse: a NaN wins (it is the culprit), ties go to the smaller id, so the slots' order
+  // does not matter.
+  for (std::size_t p = 0; p < state_.size(); ++p)
+    c = Culprit::worse(c, Culprit{state_.id[p], state_.id[p], state_.velocity[p].norm(), 0});
   return c;
 }
 

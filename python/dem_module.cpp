@@ -128,7 +128,8 @@ A discrete element world: particles, walls, contacts and the clock, advanced one
 
 Build it with World.from_scene(path) or World.from_toml(text). State arrays (positions, velocities,
 angular_velocities, radii, ids, levels) are read-only numpy VIEWS of the World's memory in storage
-order (slots in ascending id order; `ids` maps slot to id). A view stays valid, and shows the current
+order (`ids` maps slot to id; slots are in id order unless the scene sets broadphase.sort_interval,
+which re-sorts them in space: find a particle by index_of(id)). A view stays valid, and shows the current
 values, until the next call that adds or removes a particle (add_particle, remove_particle, or a
 callback doing so); advancing (advance, run_until) moves the values in place. Fetch views again after
 adding or removing: an old view may then point at freed memory.)doc")
@@ -226,7 +227,7 @@ in the callback stops the run and propagates. Raises dem.DivergedError on a non-
             const auto& id = live(self.cast<PyWorld&>()).state().id;
             return view<dem::ParticleId>(id.data(), id.size(), 0, self);
           },
-          "N uint32 view of the stable particle ids, storage order (ascending).")
+          "N uint32 view of the stable particle ids, in storage order.")
       .def_property_readonly(
           "levels",
           [](py::object self) {
