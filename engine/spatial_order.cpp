@@ -21,7 +21,8 @@ std::pair<Vec3, Vec3> bounding_box(std::span<const Vec3> points) {
 std::vector<std::uint32_t> curve_order(std::span<const Vec3> points) {
   std::vector<std::uint32_t> order(points.size());
   if (points.empty()) return order;
-  const auto [lo, hi] = bounding_box(points);
+  const std::pair<Vec3, Vec3> box = bounding_box(points);
+  const Vec3 lo = box.first, hi = box.second;
   const Real side = (hi - lo).maxCoeff();
   constexpr int bits = 10;
   const auto cell = [&](Real x, Real x_lo) {
@@ -51,7 +52,8 @@ std::vector<std::uint32_t> bin_order(std::span<const Vec3> points, Real bin) {
     for (std::size_t q = 0; q < order.size(); ++q) order[q] = static_cast<std::uint32_t>(q);
     return order;
   }
-  const auto [lo, hi] = bounding_box(points);
+  const std::pair<Vec3, Vec3> box = bounding_box(points);
+  const Vec3 lo = box.first, hi = box.second;
   constexpr Real max_bins = Real(1 << 21);  // per axis: three axes fit a 64-bit key
   const Real side = std::max({bin, (hi - lo).maxCoeff() / (max_bins - 1), Real{1e-300}});
   const auto bins_along = [&](int d) { return static_cast<std::uint64_t>((hi[d] - lo[d]) / side) + 1; };
