@@ -1,7 +1,8 @@
 // Hashed uniform grid broadphase (see grid.h).
 // Reads: positions [m], radii [m], skin [m]. Writes: CandidatePairs and this object's scratch buffers.
-// Threading: every parallel body writes only slots owned by its index or block; the counting sort and
-// the output use count / exclusive scan / fill, so the result does not depend on the thread count.
+// Threading: every parallel body writes only slots owned by its index or block; the counting sort
+// uses count / exclusive scan / fill, and the output queries fixed blocks of slots into buffers of
+// their own, scans the counts and copies, so the result does not depend on the thread count.
 #include "broadphase/grid.h"
 
 #include "broadphase/parallel.h"
@@ -12,6 +13,7 @@
 #include <cfloat>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 namespace dem::broadphase {
 namespace {
@@ -20,7 +22,7 @@ constexpr std::size_t min_block_size = 4096;   // particles per block of the fir
 constexpr std::size_t max_block_count = 256;   // bounds the per-block histograms
 constexpr std::size_t max_super_count = 1024;  // super-buckets of the first sort level, at most
 constexpr std::size_t min_super_size = 256;    // buckets per super-bucket, at least (task granularity)
-constexpr std::size_t query_grain = 256;
+constexpr std::size_t query_block = 256;      // slots per block of queries
 
 // Cell coordinates are clamped here; the clamp is monotone, so neighbours stay neighbours. With the cell
 // size chosen in find_pairs, |x| / cell_size stays below 2^51 anyway; the clamp covers inf and NaN.
@@ -100,36 +102,52 @@ void GridBroadphase::find_pairs(std::span<const Vec3> positions, std::span<const
 
   sort_into_buckets(positions, radii);
 
-  // Rows by count / scan / fill. Queries run in slot order, so consecutive queries mostly share a cell
-  // (its neighbourhood is then reused) and read neighbouring memory; slot t fills the row of particle
-  // sorted_[t], which no other slot touches.
-  const auto for_each_query = [&](auto&& query) {
-    parallel_ranges(n, query_grain, [&](std::size_t begin, std::size_t end) {
-      Neighbourhood hood;
-      for (std::size_t t = begin; t < end; ++t) {
-        const Cell c = cell_of(slot_[t].position);
-        if (t == begin || c.z != hood.cell.z || c.x != hood.cell.x || c.y != hood.cell.y) {
-          find_neighbourhood(c, hood);
-        }
-        query(t, hood);
-      }
-    });
-  };
+  // Rows in one pass of queries and a copy. Queries run in slot order, in fixed blocks of slots, so
+  // consecutive queries mostly share a cell (its neighbourhood is then reused) and read neighbouring
+  // memory; slot t's partners go to its block's own buffer (ascending), and its count to the row of
+  // particle sorted_[t], which no other slot touches. A scan then places the rows, and each block
+  // copies its buffer into them. The rows do not depend on the blocks, nor the blocks on the threads.
+  const std::size_t block_count = (n + query_block - 1) / query_block;
+  if (block_partners_.size() < block_count) block_partners_.resize(block_count);
   std::span<std::uint32_t> counts(out.row_start.data() + 1, n);
-  for_each_query([&](std::size_t t, const Neighbourhood& hood) { counts[sorted_[t]] = count_partners(t, hood, skin); });
+  parallel_ranges(block_count, 1, [&](std::size_t b0, std::size_t b1) {
+    Neighbourhood hood;
+    for (std::size_t b = b0; b < b1; ++b) {
+      std::vector<std::uint32_t>& partners = block_partners_[b];
+      std::size_t used = 0;
+      const std::size_t first = b * query_block, last = std::min(n, first + query_block);
+      for (std::size_t t = first; t < last; ++t) {
+        const Cell c = cell_of(slot_[t].position);
+        if (t == first || c.z != hood.cell.z || c.x != hood.cell.x || c.y != hood.cell.y) find_neighbourhood(c, hood);
+        const std::uint32_t count = append_partners(t, hood, skin, partners, used);
+        counts[sorted_[t]] = count;
+        used += count;
+      }
+    }
+  });
   const std::uint64_t pair_count = detail::inclusive_scan_in_place(counts, scan_scratch_);
   assert(pair_count <= std::numeric_limits<std::uint32_t>::max());
   out.partner.resize(pair_count);
-  for_each_query([&](std::size_t t, const Neighbourhood& hood) {
-    const std::uint32_t i = sorted_[t];
-    fill_partners(t, hood, skin, {out.partner.data() + out.row_start[i], out.row_start[i + 1] - out.row_start[i]});
+  parallel_ranges(block_count, 1, [&](std::size_t b0, std::size_t b1) {
+    for (std::size_t b = b0; b < b1; ++b) {
+      const std::uint32_t* from = block_partners_[b].data();
+      for (std::size_t t = b * query_block; t < std::min(n, (b + 1) * query_block); ++t) {
+        const std::uint32_t i = sorted_[t];
+        const std::uint32_t count = out.row_start[i + 1] - out.row_start[i];
+        std::copy(from, from + count, out.partner.begin() + out.row_start[i]);
+        from += count;
+      }
+    }
   });
 }
 
 std::size_t GridBroadphase::memory_bytes() const {
   const auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   return bytes(bucket_start_) + bytes(sorted_) + bytes(slot_) + bytes(bucket_) + bytes(by_super_) +
-         bytes(block_offset_) + bytes(super_start_) + bytes(block_bounds_) + bytes(scan_scratch_);
+         bytes(block_offset_) + bytes(super_start_) + bytes(block_bounds_) + bytes(scan_scratch_) +
+         block_partners_.capacity() * sizeof(block_partners_[0]) +
+         std::accumulate(block_partners_.begin(), block_partners_.end(), std::size_t{0},
+                         [&](std::size_t sum, const std::vector<std::uint32_t>& v) { return sum + bytes(v); });
 }
 
 // Counting sort of particles by bucket in two levels, so no shared counters are needed:
@@ -291,37 +309,25 @@ bool GridBroadphase::is_partner(std::size_t t, std::uint32_t u, double skin) con
   return static_cast<unsigned>(sorted_[u] > sorted_[t]) & static_cast<unsigned>(candidate);
 }
 
-// Branch-free on the test's outcome, which goes either way about half the time (the j > i part).
-std::uint32_t GridBroadphase::count_partners(std::size_t t, const Neighbourhood& hood, double skin) const {
-  std::uint32_t count = 0;
-  for (int k = 0; k < hood.range_count; ++k) {
-    for (std::uint32_t u = hood.begin[k]; u < hood.end[k]; ++u) count += is_partner(t, u, skin);
-  }
-  return count;
-}
-
-// Writes the partners counted by count_partners into `row`, ascending. Short rows are gathered branch-free
-// in a local buffer (every write lands below the known count, so within the buffer); long rows directly.
-void GridBroadphase::fill_partners(std::size_t t, const Neighbourhood& hood, double skin,
-                                   std::span<std::uint32_t> row) const {
-  constexpr std::size_t local_capacity = 64;
-  std::uint32_t local[local_capacity];
-  const bool short_row = row.size() < local_capacity;
-  std::uint32_t* target = short_row ? local : row.data();
+// Writes the partners of slot t into `partners` from index `start`, ascending, and returns their
+// count; the vector only grows, so its size is its capacity in use. Branch-free on the test's
+// outcome, which goes either way about half the time (the j > i part): each particle of the
+// neighbourhood is written at the row's end and kept by advancing the end.
+std::uint32_t GridBroadphase::append_partners(std::size_t t, const Neighbourhood& hood, double skin,
+                                              std::vector<std::uint32_t>& partners, std::size_t start) const {
+  std::size_t room = 0;
+  for (int k = 0; k < hood.range_count; ++k) room += hood.end[k] - hood.begin[k];
+  if (partners.size() < start + room) partners.resize(start + room);
+  std::uint32_t* row = partners.data() + start;
   std::uint32_t count = 0;
   for (int k = 0; k < hood.range_count; ++k) {
     for (std::uint32_t u = hood.begin[k]; u < hood.end[k]; ++u) {
-      if (short_row) {
-        target[count] = sorted_[u];
-        count += is_partner(t, u, skin);
-      } else if (is_partner(t, u, skin)) {
-        target[count++] = sorted_[u];
-      }
+      row[count] = sorted_[u];
+      count += is_partner(t, u, skin);
     }
   }
-  assert(count == row.size());
-  std::sort(target, target + count);
-  if (short_row) std::copy(local, local + count, row.begin());
+  std::sort(row, row + count);
+  return count;
 }
 
 }  // namespace dem::broadphase

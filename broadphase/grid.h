@@ -64,8 +64,8 @@ class GridBroadphase {
   void sort_into_buckets(std::span<const Vec3> positions, std::span<const double> radii);
   void find_neighbourhood(const Cell& cell, Neighbourhood& hood) const;
   bool is_partner(std::size_t t, std::uint32_t u, double skin) const;
-  std::uint32_t count_partners(std::size_t t, const Neighbourhood& hood, double skin) const;
-  void fill_partners(std::size_t t, const Neighbourhood& hood, double skin, std::span<std::uint32_t> row) const;
+  std::uint32_t append_partners(std::size_t t, const Neighbourhood& hood, double skin,
+                                std::vector<std::uint32_t>& partners, std::size_t start) const;
 
   double cell_size_ = 0.0;                   // [m]
   std::uint64_t bucket_mask_ = 0;            // bucket_count - 1
@@ -80,6 +80,7 @@ class GridBroadphase {
   std::vector<std::uint32_t> super_start_;   // super_count + 1
   std::vector<CellBounds> block_bounds_;     // per block
   std::vector<std::uint64_t> scan_scratch_;
+  std::vector<std::vector<std::uint32_t>> block_partners_;  // per block of queries: its slots' partners
 };
 
 }  // namespace dem::broadphase
