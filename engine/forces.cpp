@@ -109,9 +109,12 @@ void set_rates(ContactKinematics& kin, const SurfaceMotion& half_step, const Sur
 /// where both are still in registers. Flattened: the surface-motion, rate and law helpers are inlined
 /// into it, so their structs stay in registers instead of passing through memory.
 template <class Law>
-[[gnu::flatten]] void evaluate_pair(const State& s, const MaterialTable& materials, PairContacts& c, std::size_t k,
-                                    ParticleIndex i, ParticleIndex j, Real h, const DashpotVelocity& d, bool books,
-                                    Vec3* moment = nullptr) {
+using ConstantsMemo = LawConstantsMemo<Law::friction, Law::rolling>;
+
+template <class Law>
+[[gnu::flatten]] void evaluate_pair(const State& s, const MaterialTable& materials, ConstantsMemo<Law>& memo,
+                                    PairContacts& c, std::size_t k, ParticleIndex i, ParticleIndex j, Real h,
+                                    const DashpotVelocity& d, bool books, Vec3* moment = nullptr) {
   const auto [n, dist] = pair_normal(s, i, j);
   const Real overlap = s.radius[i] + s.radius[j] - dist;
   const Real arm_i = s.radius[i] - 0.5 * overlap, arm_j = s.radius[j] - 0.5 * overlap;  // as gather_forces
@@ -133,9 +136,9 @@ template <class Law>
   const Real inv_m = s.inv_mass[i] + s.inv_mass[j];  // two fixed particles: no impact energy
   if (books && history.impact_energy < 0)
     history.impact_energy = inv_m > 0 ? 0.5 * kin.overlap_rate * kin.overlap_rate / inv_m : 0;
-  const LawConstants constants = materials.law_constants<Law::friction, Law::rolling>(
-      materials.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i], s.radius[i], s.inv_mass[j],
-      s.inv_inertia[j], s.radius[j]);
+  const LawConstants& constants =
+      memo.get(materials, materials.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i],
+               s.radius[i], s.inv_mass[j], s.inv_inertia[j], s.radius[j]);
   const ContactResponse r = Law::evaluate(constants, kin, history, h);
   history.normal_work += h * r.normal_power;
   history.normal_elastic = r.normal_elastic;
@@ -152,7 +155,10 @@ template <class Law>
 void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c, Real h, const DashpotVelocity& d) {
   DEM_ASSERT(c.parts.friction == Law::friction && c.parts.rolling == Law::rolling);
   const bool books = c.parts.books;
-  parallel_for(c.size(), [&](std::size_t k) { evaluate_pair<Law>(s, materials, c, k, c.i[k], c.j[k], h, d, books); });
+  parallel_chunks(c.size(), [&](std::size_t begin, std::size_t end) {
+    ConstantsMemo<Law> memo;
+    for (std::size_t k = begin; k < end; ++k) evaluate_pair<Law>(s, materials, memo, c, k, c.i[k], c.j[k], h, d, books);
+  });
 }
 
 /// Row by row over the persistent list: a slot whose pair overlaps is evaluated (a contact that
@@ -172,7 +178,7 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
   const bool books = c.parts.books;
   // Contacts left behind may sit in any row: then every row is visited.
   const bool sparse = !nb.visited_rows.empty() && nb.left_start.empty();
-  parallel_for(sparse ? nb.visited_rows.size() : c.row_start.size() - 1, [&](std::size_t r) {
+  const auto row_forces = [&](ConstantsMemo<Law>& memo, std::size_t r) {
     const std::size_t a = sparse ? nb.visited_rows[r] : r;
     Real ended = 0;
     std::uint8_t any_ended = 0;
@@ -204,7 +210,7 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
       for (std::uint32_t e = 0; e < n_evaluated; ++e) {
         const std::uint32_t k = evaluated[e];
         const ParticleIndex j = c.j[k];
-        evaluate_pair<Law>(s, materials, c, k, i, j, h, d, books, Law::uses_rotation ? &nb.moment[k] : nullptr);
+        evaluate_pair<Law>(s, materials, memo, c, k, i, j, h, d, books, Law::uses_rotation ? &nb.moment[k] : nullptr);
         nb.touching[k] = touching_yes;
         // The row's deepest: the first of equal ratios, a NaN before any number (deepest_contact).
         const Real ratio = overlap_ratio(c.overlap[k], r_i, s.radius[j]);
@@ -227,6 +233,10 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
     nb.row_has_ended[a] = any_ended;
     nb.row_deepest[a] = deepest;
     nb.row_deepest_slot[a] = deepest_slot;
+  };
+  parallel_chunks(sparse ? nb.visited_rows.size() : c.row_start.size() - 1, [&](std::size_t begin, std::size_t end) {
+    ConstantsMemo<Law> memo;
+    for (std::size_t r = begin; r < end; ++r) row_forces(memo, r);
   });
 }
 
@@ -234,7 +244,7 @@ template <class Law>
 void wall_forces(const State& s, const MaterialTable& materials, const Walls& walls, WallContacts& c,
                  const std::vector<WallTouch>& touches, Real h, const DashpotVelocity& d) {
   DEM_ASSERT(touches.size() == c.size());
-  parallel_for(c.size(), [&](std::size_t k) {
+  const auto contact_force = [&](ConstantsMemo<Law>& memo, std::size_t k) {
     const ParticleIndex p = c.particle[k];
     const std::uint32_t w = c.wall[k];
     // Contacts are rebuilt at these very positions: every one touches, with this geometry.
@@ -259,9 +269,9 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
     kin.onset = c.overlap[k] == 0;  // a new contact: no evaluation has stored its overlap yet
     ContactHistory& history = c.history[k];
     if (history.impact_energy < 0) history.impact_energy = 0.5 * kin.overlap_rate * kin.overlap_rate / s.inv_mass[p];
-    const LawConstants constants = materials.law_constants<Law::friction, Law::rolling>(
-        materials.pair_class(s.material[p], walls.material(w)), s.inv_mass[p], s.inv_inertia[p], s.radius[p], 0, 0,
-        std::numeric_limits<Real>::infinity());
+    const LawConstants& constants = memo.get(materials, materials.pair_class(s.material[p], walls.material(w)),
+                                             s.inv_mass[p], s.inv_inertia[p], s.radius[p], 0, 0,
+                                             std::numeric_limits<Real>::infinity());
     const ContactResponse r = Law::evaluate(constants, kin, history, h);
     history.normal_work += h * r.normal_power;
     history.normal_elastic = r.normal_elastic;
@@ -276,6 +286,10 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
     } else {
       c.rolling_torque[k].setZero();
     }
+  };
+  parallel_chunks(c.size(), [&](std::size_t begin, std::size_t end) {
+    ConstantsMemo<Law> memo;
+    for (std::size_t k = begin; k < end; ++k) contact_force(memo, k);
   });
 }
 

@@ -2,6 +2,7 @@
 // Materials and the dense per-pair table of contact parameters, built once at set-up.
 // Damping given as restitution or Tsuji's alpha is resolved to a damping ratio here (restitution
 // with the scene's separation convention), so a contact only needs its effective masses to get c.
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -130,6 +131,38 @@ class MaterialTable {
   std::vector<PairParams> params_;
   bool any_friction_ = false;
   bool any_rolling_ = false;
+};
+
+/// MaterialTable::law_constants of the last pair asked for, handed out again while the next pair's
+/// inputs repeat bit for bit: a row's partners, and neighbouring rows, are mostly alike (one kind of
+/// ball in a mill), and with rolling resistance the constants take four divisions and four roots.
+/// The values are exactly law_constants'. Scratch of one thread's stretch of a loop.
+template <bool Friction, bool Rolling>
+class LawConstantsMemo {
+ public:
+  const LawConstants& get(const MaterialTable& table, std::uint16_t pair_class, Real inv_m_i, Real inv_i_i, Real r_i,
+                          Real inv_m_j, Real inv_i_j, Real r_j) {
+    const Key key{{std::bit_cast<std::uint64_t>(inv_m_i), std::bit_cast<std::uint64_t>(inv_i_i),
+                   std::bit_cast<std::uint64_t>(r_i), std::bit_cast<std::uint64_t>(inv_m_j),
+                   std::bit_cast<std::uint64_t>(inv_i_j), std::bit_cast<std::uint64_t>(r_j)},
+                  pair_class};
+    if (!has_value_ || !(key == key_)) {
+      value_ = table.law_constants<Friction, Rolling>(pair_class, inv_m_i, inv_i_i, r_i, inv_m_j, inv_i_j, r_j);
+      key_ = key;
+      has_value_ = true;
+    }
+    return value_;
+  }
+
+ private:
+  struct Key {
+    std::uint64_t bits[6];  // the inverse masses, inverse inertias and radii, as bits
+    std::uint16_t pair_class;
+    bool operator==(const Key&) const = default;
+  };
+  Key key_{};
+  LawConstants value_{};
+  bool has_value_ = false;
 };
 
 }  // namespace dem

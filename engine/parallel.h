@@ -40,6 +40,17 @@ void parallel_for(std::size_t n, const Body& body, std::size_t grain = default_g
   });
 }
 
+/// Runs body(begin, end) over chunks that cover [0, n), as parallel_for splits it: for loops that
+/// keep scratch across the indices of a chunk. Bodies must write only to slots owned by their indices.
+template <class Body>
+void parallel_chunks(std::size_t n, const Body& body, std::size_t grain = default_grain) {
+  if (n <= grain) {
+    if (n > 0) body(std::size_t{0}, n);
+    return;
+  }
+  broadphase::parallel_ranges(n, grain, body);
+}
+
 inline constexpr std::size_t sum_block_size = 1024;
 
 /// Deterministic sum of value(i) for i in [0, n); T is any type with + and a zero from T{}.
