@@ -8,7 +8,7 @@ namespace {
 
 // One particle's kick: v += h (F/m + g), omega += h T/I; immovable particles keep their velocity.
 template <bool Rotation, bool Disc>
-void kick_one(State& s, std::size_t p, Real h, const Vec3& gravity) {
+[[gnu::always_inline]] inline void kick_one(State& s, std::size_t p, Real h, const Vec3& gravity) {
   const Real inv_m = s.inv_mass[p];
   if (inv_m == 0) return;
   s.velocity[p] += h * (inv_m * s.force[p] + gravity);
