@@ -219,9 +219,8 @@ struct LinearSpringDashpot {
       const Real start = k.overlap - h * k.overlap_rate;
       if (start < 0) out.normal_power += 0.5 * c.k_n * k.overlap * start / h;
     }
-    out.power = out.normal_power -
-                0.5 * (previous_tangential + tangential_force).dot(k.tangential_velocity) -
-                out.rolling_torque.dot(k.rolling_velocity);
+    out.power = out.normal_power - 0.5 * (previous_tangential + tangential_force).dot(k.tangential_velocity);
+    if constexpr (Rolling != RollingKind::none) out.power -= out.rolling_torque.dot(k.rolling_velocity);
     out.elastic = spring_active ? 0.5 * c.k_n * k.overlap * k.overlap : 0.0;
     out.normal_elastic = out.elastic;
     if constexpr (Friction) out.elastic += 0.5 * c.k_t * history.tangential_spring.squaredNorm();

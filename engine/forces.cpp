@@ -61,11 +61,12 @@ struct SurfaceMotion {
 };
 
 /// Contact-point velocities of a pair: omega_i x (-a_i n) - omega_j x (a_j n) (docs/physics.md 1.2).
-template <bool Rotation>
+/// The rolling velocity only for a law with rolling resistance (no other law reads it: it stays 0).
+template <bool Rotation, bool Rolling>
 SurfaceMotion pair_surface(const Motion& a, const Motion& b, Real arm_a, Real arm_b, const Vec3& n) {
   SurfaceMotion m{a.velocity - b.velocity};
-  if constexpr (Rotation) {
-    m.u -= (arm_a * a.angular_velocity + arm_b * b.angular_velocity).cross(n);
+  if constexpr (Rotation) m.u -= (arm_a * a.angular_velocity + arm_b * b.angular_velocity).cross(n);
+  if constexpr (Rolling) {
     m.rolling = a.angular_velocity - b.angular_velocity;
     m.rolling -= m.rolling.dot(n) * n;
   }
@@ -74,12 +75,12 @@ SurfaceMotion pair_surface(const Motion& a, const Motion& b, Real arm_a, Real ar
 
 /// The same against a wall whose material at the contact point moves at `wall_velocity` and spins
 /// at `wall_spin`.
-template <bool Rotation>
+template <bool Rotation, bool Rolling>
 SurfaceMotion wall_surface(const Motion& a, const Vec3& wall_velocity, const Vec3& wall_spin, Real arm,
                            const Vec3& n) {
   SurfaceMotion m{a.velocity - wall_velocity};
-  if constexpr (Rotation) {
-    m.u -= arm * a.angular_velocity.cross(n);
+  if constexpr (Rotation) m.u -= arm * a.angular_velocity.cross(n);
+  if constexpr (Rolling) {
     m.rolling = a.angular_velocity - wall_spin;
     m.rolling -= m.rolling.dot(n) * n;
   }
@@ -119,14 +120,14 @@ template <class Law>
   const Real overlap = s.radius[i] + s.radius[j] - dist;
   const Real arm_i = s.radius[i] - 0.5 * overlap, arm_j = s.radius[j] - 0.5 * overlap;  // as gather_forces
   constexpr bool rotation = Law::uses_rotation;
-  const SurfaceMotion half_step = pair_surface<rotation>(motion_of(s, i), motion_of(s, j), arm_i, arm_j, n);
+  const SurfaceMotion half_step = pair_surface<rotation, Law::rolling>(motion_of(s, i), motion_of(s, j), arm_i, arm_j, n);
   ContactKinematics kin;
   kin.normal = n;
   kin.overlap = overlap;
   kin.previous_force = c.force[k];
   if (d.predicted) {
     const SurfaceMotion damped =
-        pair_surface<rotation>(predicted_motion(s, i, h, d), predicted_motion(s, j, h, d), arm_i, arm_j, n);
+        pair_surface<rotation, Law::rolling>(predicted_motion(s, i, h, d), predicted_motion(s, j, h, d), arm_i, arm_j, n);
     set_rates(kin, half_step, &damped);
   } else {
     set_rates(kin, half_step, nullptr);
@@ -255,13 +256,13 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
     const Vec3 wall_velocity = walls.velocity_at(w, point);
     constexpr bool rotation = Law::uses_rotation;
     const Vec3 wall_spin = rotation ? walls.angular_velocity(w) : Vec3::Zero();
-    const SurfaceMotion half_step = wall_surface<rotation>(motion_of(s, p), wall_velocity, wall_spin, arm, n);
+    const SurfaceMotion half_step = wall_surface<rotation, Law::rolling>(motion_of(s, p), wall_velocity, wall_spin, arm, n);
     ContactKinematics kin;
     kin.normal = n;
     kin.overlap = touch.overlap;
     kin.previous_force = c.force[k];
     if (d.predicted) {
-      const SurfaceMotion damped = wall_surface<rotation>(predicted_motion(s, p, h, d), wall_velocity, wall_spin, arm, n);
+      const SurfaceMotion damped = wall_surface<rotation, Law::rolling>(predicted_motion(s, p, h, d), wall_velocity, wall_spin, arm, n);
       set_rates(kin, half_step, &damped);
     } else {
       set_rates(kin, half_step, nullptr);
