@@ -105,13 +105,14 @@ void set_rates(ContactKinematics& kin, const SurfaceMotion& half_step, const Sur
   kin.dashpot_rolling_velocity = damped->rolling;
 }
 
+/// The memo of law constants the force loops of `Law` keep per chunk of contacts.
+template <class Law>
+using ConstantsMemo = LawConstantsMemo<Law::friction, Law::rolling>;
+
 /// Evaluates pair contact k of `c` (between particles i and j) and writes its slots: force, rolling torque, history,
 /// overlap and books; and n x force into `moment` when given (n the unit normal from j to i), here
 /// where both are still in registers. Flattened: the surface-motion, rate and law helpers are inlined
 /// into it, so their structs stay in registers instead of passing through memory.
-template <class Law>
-using ConstantsMemo = LawConstantsMemo<Law::friction, Law::rolling>;
-
 template <class Law>
 [[gnu::flatten]] void evaluate_pair(const State& s, const MaterialTable& materials, ConstantsMemo<Law>& memo,
                                     PairContacts& c, std::size_t k, ParticleIndex i, ParticleIndex j, Real h,
@@ -120,14 +121,15 @@ template <class Law>
   const Real overlap = s.radius[i] + s.radius[j] - dist;
   const Real arm_i = s.radius[i] - 0.5 * overlap, arm_j = s.radius[j] - 0.5 * overlap;  // as gather_forces
   constexpr bool rotation = Law::uses_rotation;
-  const SurfaceMotion half_step = pair_surface<rotation, Law::rolling>(motion_of(s, i), motion_of(s, j), arm_i, arm_j, n);
+  const SurfaceMotion half_step =
+      pair_surface<rotation, Law::rolling>(motion_of(s, i), motion_of(s, j), arm_i, arm_j, n);
   ContactKinematics kin;
   kin.normal = n;
   kin.overlap = overlap;
   kin.previous_force = c.force[k];
   if (d.predicted) {
-    const SurfaceMotion damped =
-        pair_surface<rotation, Law::rolling>(predicted_motion(s, i, h, d), predicted_motion(s, j, h, d), arm_i, arm_j, n);
+    const SurfaceMotion damped = pair_surface<rotation, Law::rolling>(
+        predicted_motion(s, i, h, d), predicted_motion(s, j, h, d), arm_i, arm_j, n);
     set_rates(kin, half_step, &damped);
   } else {
     set_rates(kin, half_step, nullptr);
@@ -256,13 +258,15 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
     const Vec3 wall_velocity = walls.velocity_at(w, point);
     constexpr bool rotation = Law::uses_rotation;
     const Vec3 wall_spin = rotation ? walls.angular_velocity(w) : Vec3::Zero();
-    const SurfaceMotion half_step = wall_surface<rotation, Law::rolling>(motion_of(s, p), wall_velocity, wall_spin, arm, n);
+    const SurfaceMotion half_step =
+        wall_surface<rotation, Law::rolling>(motion_of(s, p), wall_velocity, wall_spin, arm, n);
     ContactKinematics kin;
     kin.normal = n;
     kin.overlap = touch.overlap;
     kin.previous_force = c.force[k];
     if (d.predicted) {
-      const SurfaceMotion damped = wall_surface<rotation, Law::rolling>(predicted_motion(s, p, h, d), wall_velocity, wall_spin, arm, n);
+      const SurfaceMotion damped =
+          wall_surface<rotation, Law::rolling>(predicted_motion(s, p, h, d), wall_velocity, wall_spin, arm, n);
       set_rates(kin, half_step, &damped);
     } else {
       set_rates(kin, half_step, nullptr);
