@@ -1,6 +1,7 @@
 #include "engine/spatial_order.h"
 
 #include <algorithm>
+#include <numeric>
 #include <utility>
 
 namespace dem {
@@ -49,7 +50,7 @@ std::vector<std::uint32_t> bin_order(std::span<const Vec3> points, Real bin) {
   if (points.empty()) return order;
   // A run about to stop on a non-finite state: leave the order (a NaN has no bin).
   if (!std::all_of(points.begin(), points.end(), [](const Vec3& x) { return x.allFinite(); })) {
-    for (std::size_t q = 0; q < order.size(); ++q) order[q] = static_cast<std::uint32_t>(q);
+    std::iota(order.begin(), order.end(), std::uint32_t{0});
     return order;
   }
   const std::pair<Vec3, Vec3> box = bounding_box(points);
