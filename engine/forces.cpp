@@ -1,6 +1,7 @@
 #include "engine/forces.h"
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "engine/checks.h"
@@ -105,17 +106,31 @@ void set_rates(ContactKinematics& kin, const SurfaceMotion& half_step, const Sur
   kin.dashpot_rolling_velocity = damped->rolling;
 }
 
-/// The memo of law constants the force loops of `Law` keep per chunk of contacts.
+/// The law constants of pair (i, j) from the material table, and the inputs they are made from.
 template <class Law>
-using ConstantsMemo = LawConstantsMemo<Law::friction, Law::rolling>;
+LawConstants pair_constants(const State& s, const MaterialTable& materials, ParticleIndex i, ParticleIndex j) {
+  return materials.law_constants<Law::friction, Law::rolling>(materials.pair_class(s.material[i], s.material[j]),
+                                                              s.inv_mass[i], s.inv_inertia[i], s.radius[i],
+                                                              s.inv_mass[j], s.inv_inertia[j], s.radius[j]);
+}
 
-/// Evaluates pair contact k of `c` (between particles i and j) and writes its slots: force, rolling torque, history,
-/// overlap and books; and n x force into `moment` when given (n the unit normal from j to i), here
-/// where both are still in registers. Flattened: the surface-motion, rate and law helpers are inlined
+/// Equal constants, bit for bit (the memo keyed on kinds is checked against the table with it).
+[[maybe_unused]] bool law_constants_equal(const LawConstants& a, const LawConstants& b) {
+  return std::memcmp(&a, &b, sizeof a) == 0;
+}
+
+LawInputKey pair_input_key(const State& s, const MaterialTable& materials, ParticleIndex i, ParticleIndex j) {
+  return law_input_key(materials.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i],
+                       s.radius[i], s.inv_mass[j], s.inv_inertia[j], s.radius[j]);
+}
+
+/// Evaluates pair contact k of `c` (between particles i and j, with law constants `constants`) and
+/// writes its slots: force, rolling torque, history, overlap and books; and n x force into `moment`
+/// when given (n the unit normal from j to i), here where both are still in registers. Flattened: the surface-motion, rate and law helpers are inlined
 /// into it, so their structs stay in registers instead of passing through memory.
 template <class Law>
-[[gnu::flatten]] void evaluate_pair(const State& s, const MaterialTable& materials, ConstantsMemo<Law>& memo,
-                                    PairContacts& c, std::size_t k, ParticleIndex i, ParticleIndex j, Real h,
+[[gnu::flatten]] void evaluate_pair(const State& s, const LawConstants& constants, PairContacts& c, std::size_t k,
+                                    ParticleIndex i, ParticleIndex j, Real h,
                                     const DashpotVelocity& d, bool books, Vec3* moment = nullptr) {
   const auto [n, dist] = pair_normal(s, i, j);
   const Real overlap = s.radius[i] + s.radius[j] - dist;
@@ -139,9 +154,6 @@ template <class Law>
   const Real inv_m = s.inv_mass[i] + s.inv_mass[j];  // two fixed particles: no impact energy
   if (books && history.impact_energy < 0)
     history.impact_energy = inv_m > 0 ? 0.5 * kin.overlap_rate * kin.overlap_rate / inv_m : 0;
-  const LawConstants& constants =
-      memo.get(materials, materials.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i],
-               s.radius[i], s.inv_mass[j], s.inv_inertia[j], s.radius[j]);
   const ContactResponse r = Law::evaluate(constants, kin, history, h);
   history.normal_work += h * r.normal_power;
   history.normal_elastic = r.normal_elastic;
@@ -159,8 +171,13 @@ void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c
   DEM_ASSERT(c.parts.friction == Law::friction && c.parts.rolling == Law::rolling);
   const bool books = c.parts.books;
   parallel_chunks(c.size(), [&](std::size_t begin, std::size_t end) {
-    ConstantsMemo<Law> memo;
-    for (std::size_t k = begin; k < end; ++k) evaluate_pair<Law>(s, materials, memo, c, k, c.i[k], c.j[k], h, d, books);
+    LawConstantsMemo<LawInputKey> memo;
+    for (std::size_t k = begin; k < end; ++k) {
+      const ParticleIndex i = c.i[k], j = c.j[k];
+      const LawConstants& constants =
+          memo.get(pair_input_key(s, materials, i, j), [&] { return pair_constants<Law>(s, materials, i, j); });
+      evaluate_pair<Law>(s, constants, c, k, i, j, h, d, books);
+    }
   });
 }
 
@@ -181,7 +198,7 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
   const bool books = c.parts.books;
   // Contacts left behind may sit in any row: then every row is visited.
   const bool sparse = !nb.visited_rows.empty() && nb.left_start.empty();
-  const auto row_forces = [&](ConstantsMemo<Law>& memo, std::size_t r) {
+  const auto row_forces = [&](LawConstantsMemo<std::uint64_t>& memo, std::size_t r) {
     const std::size_t a = sparse ? nb.visited_rows[r] : r;
     Real ended = 0;
     std::uint8_t any_ended = 0;
@@ -198,6 +215,7 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
     };
     const ParticleIndex i = static_cast<ParticleIndex>(a);
     const Real r_i = s.radius[i];
+    const std::uint64_t kinds_i = std::uint64_t{nb.kind[i]} << 32;  // the memo's key: both kinds
     constexpr std::uint32_t stretch = 16;
     std::uint32_t evaluated[stretch], ending[stretch];  // slots of the stretch, ascending
     for (std::uint32_t begin = c.row_start[a]; begin < c.row_start[a + 1]; begin += stretch) {
@@ -213,7 +231,10 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
       for (std::uint32_t e = 0; e < n_evaluated; ++e) {
         const std::uint32_t k = evaluated[e];
         const ParticleIndex j = c.j[k];
-        evaluate_pair<Law>(s, materials, memo, c, k, i, j, h, d, books, Law::uses_rotation ? &nb.moment[k] : nullptr);
+        const LawConstants& constants =
+            memo.get(kinds_i | nb.kind[j], [&] { return pair_constants<Law>(s, materials, i, j); });
+        DEM_VALIDATE(law_constants_equal(constants, pair_constants<Law>(s, materials, i, j)));
+        evaluate_pair<Law>(s, constants, c, k, i, j, h, d, books, Law::uses_rotation ? &nb.moment[k] : nullptr);
         nb.touching[k] = touching_yes;
         // The row's deepest: the first of equal ratios, a NaN before any number (deepest_contact).
         const Real ratio = overlap_ratio(c.overlap[k], r_i, s.radius[j]);
@@ -238,7 +259,7 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
     nb.row_deepest_slot[a] = deepest_slot;
   };
   parallel_chunks(sparse ? nb.visited_rows.size() : c.row_start.size() - 1, [&](std::size_t begin, std::size_t end) {
-    ConstantsMemo<Law> memo;
+    LawConstantsMemo<std::uint64_t> memo;
     for (std::size_t r = begin; r < end; ++r) row_forces(memo, r);
   });
 }
@@ -247,7 +268,7 @@ template <class Law>
 void wall_forces(const State& s, const MaterialTable& materials, const Walls& walls, WallContacts& c,
                  const std::vector<WallTouch>& touches, Real h, const DashpotVelocity& d) {
   DEM_ASSERT(touches.size() == c.size());
-  const auto contact_force = [&](ConstantsMemo<Law>& memo, std::size_t k) {
+  const auto contact_force = [&](LawConstantsMemo<LawInputKey>& memo, std::size_t k) {
     const ParticleIndex p = c.particle[k];
     const std::uint32_t w = c.wall[k];
     // Contacts are rebuilt at these very positions: every one touches, with this geometry.
@@ -274,9 +295,13 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
     kin.onset = c.overlap[k] == 0;  // a new contact: no evaluation has stored its overlap yet
     ContactHistory& history = c.history[k];
     if (history.impact_energy < 0) history.impact_energy = 0.5 * kin.overlap_rate * kin.overlap_rate / s.inv_mass[p];
-    const LawConstants& constants = memo.get(materials, materials.pair_class(s.material[p], walls.material(w)),
-                                             s.inv_mass[p], s.inv_inertia[p], s.radius[p], 0, 0,
-                                             std::numeric_limits<Real>::infinity());
+    constexpr Real wall_radius = std::numeric_limits<Real>::infinity();
+    const std::uint16_t pair_class = materials.pair_class(s.material[p], walls.material(w));
+    const LawConstants& constants =
+        memo.get(law_input_key(pair_class, s.inv_mass[p], s.inv_inertia[p], s.radius[p], 0, 0, wall_radius), [&] {
+          return materials.law_constants<Law::friction, Law::rolling>(pair_class, s.inv_mass[p], s.inv_inertia[p],
+                                                                      s.radius[p], 0, 0, wall_radius);
+        });
     const ContactResponse r = Law::evaluate(constants, kin, history, h);
     history.normal_work += h * r.normal_power;
     history.normal_elastic = r.normal_elastic;
@@ -293,7 +318,7 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
     }
   };
   parallel_chunks(c.size(), [&](std::size_t begin, std::size_t end) {
-    ConstantsMemo<Law> memo;
+    LawConstantsMemo<LawInputKey> memo;
     for (std::size_t k = begin; k < end; ++k) contact_force(memo, k);
   });
 }

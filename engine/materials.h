@@ -133,21 +133,35 @@ class MaterialTable {
   bool any_rolling_ = false;
 };
 
-/// MaterialTable::law_constants of the last pair asked for, handed out again while the next pair's
-/// inputs repeat bit for bit: a row's partners, and neighbouring rows, are mostly alike (one kind of
-/// ball in a mill), and with rolling resistance the constants take four divisions and four roots.
-/// The values are exactly law_constants'. Scratch of one thread's stretch of a loop.
-template <bool Friction, bool Rolling>
+/// The inputs of MaterialTable::law_constants as bits: two pairs with equal keys have equal constants.
+struct LawInputKey {
+  std::uint64_t bits[6];  // the inverse masses, inverse inertias and radii
+  std::uint16_t pair_class;
+  bool operator==(const LawInputKey&) const = default;
+};
+
+inline LawInputKey law_input_key(std::uint16_t pair_class, Real inv_m_i, Real inv_i_i, Real r_i, Real inv_m_j,
+                                 Real inv_i_j, Real r_j) {
+  return {{std::bit_cast<std::uint64_t>(inv_m_i), std::bit_cast<std::uint64_t>(inv_i_i),
+           std::bit_cast<std::uint64_t>(r_i), std::bit_cast<std::uint64_t>(inv_m_j),
+           std::bit_cast<std::uint64_t>(inv_i_j), std::bit_cast<std::uint64_t>(r_j)},
+          pair_class};
+}
+
+/// The law constants of the last pair asked for, handed out again while the next pair's key
+/// repeats: a row's partners, and neighbouring rows, are mostly alike (one kind of ball in a mill),
+/// and with rolling resistance the constants take four divisions and four roots. `Key` must decide
+/// the constants: a LawInputKey, or the two particles' kinds (particle_kinds.h). Scratch of one
+/// thread's stretch of a loop.
+template <class Key>
 class LawConstantsMemo {
  public:
-  const LawConstants& get(const MaterialTable& table, std::uint16_t pair_class, Real inv_m_i, Real inv_i_i, Real r_i,
-                          Real inv_m_j, Real inv_i_j, Real r_j) {
-    const Key key{{std::bit_cast<std::uint64_t>(inv_m_i), std::bit_cast<std::uint64_t>(inv_i_i),
-                   std::bit_cast<std::uint64_t>(r_i), std::bit_cast<std::uint64_t>(inv_m_j),
-                   std::bit_cast<std::uint64_t>(inv_i_j), std::bit_cast<std::uint64_t>(r_j)},
-                  pair_class};
+  /// The constants of a pair with `key`; `compute()` gives them (MaterialTable::law_constants) and is
+  /// called only when the key differs from the last one.
+  template <class Compute>
+  const LawConstants& get(const Key& key, const Compute& compute) {
     if (!has_value_ || !(key == key_)) {
-      value_ = table.law_constants<Friction, Rolling>(pair_class, inv_m_i, inv_i_i, r_i, inv_m_j, inv_i_j, r_j);
+      value_ = compute();
       key_ = key;
       has_value_ = true;
     }
@@ -155,11 +169,6 @@ class LawConstantsMemo {
   }
 
  private:
-  struct Key {
-    std::uint64_t bits[6];  // the inverse masses, inverse inertias and radii, as bits
-    std::uint16_t pair_class;
-    bool operator==(const Key&) const = default;
-  };
   Key key_{};
   LawConstants value_{};
   bool has_value_ = false;

@@ -5,6 +5,7 @@
 #include "engine/capacity.h"
 #include "engine/checks.h"
 #include "engine/parallel.h"
+#include "engine/particle_kinds.h"
 
 namespace dem {
 
@@ -88,6 +89,7 @@ void rebuild_neighbours(const State& s, const broadphase::CandidatePairs& by_slo
   nb.row_has_ended.assign(n, 0);
   nb.row_deepest.assign(n, 0);
   nb.row_deepest_slot.assign(n, no_deepest_slot);
+  assign_particle_kinds(s, nb.kind);
   nb.inherited.assign(contacts.size(), 0);
   // Row a holds the candidates (a, b) with id a < id b by ascending id b, so ascending in key, and so
   // are the contacts of row a in the compact list: a linear merge.
