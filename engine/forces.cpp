@@ -106,7 +106,7 @@ void set_rates(ContactKinematics& kin, const SurfaceMotion& half_step, const Sur
   kin.dashpot_rolling_velocity = damped->rolling;
 }
 
-/// The law constants of pair (i, j) from the material table, and the inputs they are made from.
+/// The law constants of pair (i, j) from the material table.
 template <class Law>
 LawConstants pair_constants(const State& s, const MaterialTable& materials, ParticleIndex i, ParticleIndex j) {
   return materials.law_constants<Law::friction, Law::rolling>(materials.pair_class(s.material[i], s.material[j]),
@@ -126,8 +126,9 @@ LawInputKey pair_input_key(const State& s, const MaterialTable& materials, Parti
 
 /// Evaluates pair contact k of `c` (between particles i and j, with law constants `constants`) and
 /// writes its slots: force, rolling torque, history, overlap and books; and n x force into `moment`
-/// when given (n the unit normal from j to i), here where both are still in registers. Flattened: the surface-motion, rate and law helpers are inlined
-/// into it, so their structs stay in registers instead of passing through memory.
+/// when given (n the unit normal from j to i), here where both are still in registers. Flattened:
+/// the surface-motion, rate and law helpers are inlined into it, so their structs stay in registers
+/// instead of passing through memory.
 template <class Law>
 [[gnu::flatten]] void evaluate_pair(const State& s, const LawConstants& constants, PairContacts& c, std::size_t k,
                                     ParticleIndex i, ParticleIndex j, Real h,
@@ -198,6 +199,7 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
   const bool books = c.parts.books;
   // Contacts left behind may sit in any row: then every row is visited.
   const bool sparse = !nb.visited_rows.empty() && nb.left_start.empty();
+  DEM_ASSERT(nb.kind.size() == s.size());  // numbered by the last rebuild, for these particles
   const auto row_forces = [&](LawConstantsMemo<std::uint64_t>& memo, std::size_t r) {
     const std::size_t a = sparse ? nb.visited_rows[r] : r;
     Real ended = 0;

@@ -35,7 +35,9 @@ struct NeighbourContacts {
   PairContacts list;
   std::vector<std::uint8_t> touching;      // per slot: Touching
   std::vector<Vec3> moment;                // per slot, with rotation: n x force of the last evaluation, 0 if idle [N]
-  std::vector<std::uint32_t> kind;         // per particle: its kind (particle_kinds.h), as of the last rebuild
+  // Per particle: its kind (particle_kinds.h), numbered by the last rebuild; a particle's material, mass,
+  // inertia or radius never change between rebuilds (a change of the particles rebuilds the list).
+  std::vector<std::uint32_t> kind;
   // For the gather: the slots in which particle p is j are reverse_slot[reverse_start[p] ..
   // reverse_start[p + 1]], by ascending id of their i; those in which it is i are its own row.
   std::vector<std::uint32_t> reverse_start;

@@ -108,10 +108,10 @@ TEST(LawConstantsMemo, TellsASignedZeroFromAnUnsignedOne) {
   EXPECT_FALSE(same_bits(first, second)) << "m* = 1 / (+0) and 1 / (-0) differ in sign, so the constants do";
 }
 
-// Particles of six kinds: two ball sizes of steel, a ball of rock, and copies of the big steel ball
-// that differ in one value each (inverse mass, inverse inertia, radius, and an inverse mass of -0
-// against +0 for two fixed ones). Laid out in a mixed order, more kinds than the numbering keeps in
-// view at once, each copy right after the ball it copies.
+// Particles of eight kinds: two ball sizes of steel, a ball of rock, copies of the big steel ball
+// that differ in one value each (inverse mass, inverse inertia, radius), and two fixed ones whose
+// inverse mass and inertia are +0 and -0. Laid out in a mixed order, more kinds than the numbering
+// keeps in view at once, with the copy of another inverse inertia right after the ball it copies.
 State mixed_particles(const MaterialTable& table) {
   const Real m5 = 1 / (7800 * 4.0 / 3.0 * 3.14159 * 1.25e-7), i5 = m5 / (0.4 * 25e-6);
   const Real m2 = 1 / (7800 * 4.0 / 3.0 * 3.14159 * 8e-9), i2 = m2 / (0.4 * 4e-6);
