@@ -34,10 +34,10 @@ std::size_t heap_bytes(const broadphase::CandidatePairs& c) { return heap_bytes(
 
 std::size_t heap_bytes(const NeighbourContacts& nb) {
   return heap_bytes(nb.list) + heap_bytes(nb.touching) + heap_bytes(nb.moment) + heap_bytes(nb.kind) +
-         heap_bytes(nb.reverse_start) + heap_bytes(nb.reverse_slot) + heap_bytes(nb.row_ended) + heap_bytes(nb.row_has_ended) +
-         heap_bytes(nb.row_deepest) + heap_bytes(nb.row_deepest_slot) + heap_bytes(nb.left_behind) +
-         heap_bytes(nb.left_key) + heap_bytes(nb.left_dissipated) + heap_bytes(nb.left_start) +
-         heap_bytes(nb.visited_rows) + heap_bytes(nb.inherited) + heap_bytes(nb.cursor);
+         heap_bytes(nb.reverse_start) + heap_bytes(nb.reverse_slot) + heap_bytes(nb.row_ended) +
+         heap_bytes(nb.row_has_ended) + heap_bytes(nb.row_deepest) + heap_bytes(nb.row_deepest_slot) +
+         heap_bytes(nb.left_behind) + heap_bytes(nb.left_key) + heap_bytes(nb.left_dissipated) +
+         heap_bytes(nb.left_start) + heap_bytes(nb.visited_rows) + heap_bytes(nb.inherited) + heap_bytes(nb.cursor);
 }
 
 }  // namespace dem
