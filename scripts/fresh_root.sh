@@ -3,7 +3,7 @@
 # --variant=minbase: no compiler, no make, no Python), a clean clone of this repository's committed
 # HEAD copied in, and `bash scripts/run.sh` then `bash scripts/test.sh` run inside it as root.
 # Prints each command's time and status and, for a failure, the end of its log; exits non-zero when
-# either command fails. Run it after any change to set-up, packages or install steps (about 40 minutes
+# either command fails. Run it after any change to set-up, packages or install steps (about 70 minutes
 # on 2 cores; it is not part of CI).
 #
 # Only the pristine root is cached, as a tarball (default /var/cache/dem-fresh-root); every run unpacks
