@@ -106,22 +106,15 @@ void set_rates(ContactKinematics& kin, const SurfaceMotion& half_step, const Sur
   kin.dashpot_rolling_velocity = damped->rolling;
 }
 
-/// The law constants of pair (i, j) from the material table.
-template <class Law>
-LawConstants pair_constants(const State& s, const MaterialTable& materials, ParticleIndex i, ParticleIndex j) {
-  return materials.law_constants<Law::friction, Law::rolling>(materials.pair_class(s.material[i], s.material[j]),
-                                                              s.inv_mass[i], s.inv_inertia[i], s.radius[i],
-                                                              s.inv_mass[j], s.inv_inertia[j], s.radius[j]);
+/// What the law constants of pair (i, j) are made from.
+LawInputs pair_inputs(const State& s, const MaterialTable& materials, ParticleIndex i, ParticleIndex j) {
+  return {materials.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i], s.radius[i],
+          s.inv_mass[j], s.inv_inertia[j], s.radius[j]};
 }
 
 /// Equal constants, bit for bit (the memo keyed on kinds is checked against the table with it).
 [[maybe_unused]] bool law_constants_equal(const LawConstants& a, const LawConstants& b) {
   return std::memcmp(&a, &b, sizeof a) == 0;
-}
-
-LawInputKey pair_input_key(const State& s, const MaterialTable& materials, ParticleIndex i, ParticleIndex j) {
-  return law_input_key(materials.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i],
-                       s.radius[i], s.inv_mass[j], s.inv_inertia[j], s.radius[j]);
 }
 
 /// Evaluates pair contact k of `c` (between particles i and j, with law constants `constants`) and
@@ -172,11 +165,12 @@ void pair_forces(const State& s, const MaterialTable& materials, PairContacts& c
   DEM_ASSERT(c.parts.friction == Law::friction && c.parts.rolling == Law::rolling);
   const bool books = c.parts.books;
   parallel_chunks(c.size(), [&](std::size_t begin, std::size_t end) {
-    LawConstantsMemo<LawInputKey> memo;
+    LawConstantsMemo<LawInputs> memo;
     for (std::size_t k = begin; k < end; ++k) {
       const ParticleIndex i = c.i[k], j = c.j[k];
+      const LawInputs inputs = pair_inputs(s, materials, i, j);
       const LawConstants& constants =
-          memo.get(pair_input_key(s, materials, i, j), [&] { return pair_constants<Law>(s, materials, i, j); });
+          memo.get(inputs, [&] { return materials.law_constants<Law::friction, Law::rolling>(inputs); });
       evaluate_pair<Law>(s, constants, c, k, i, j, h, d, books);
     }
   });
@@ -233,9 +227,11 @@ void neighbour_forces(const State& s, const MaterialTable& materials, NeighbourC
       for (std::uint32_t e = 0; e < n_evaluated; ++e) {
         const std::uint32_t k = evaluated[e];
         const ParticleIndex j = c.j[k];
-        const LawConstants& constants =
-            memo.get(kinds_i | nb.kind[j], [&] { return pair_constants<Law>(s, materials, i, j); });
-        DEM_VALIDATE(law_constants_equal(constants, pair_constants<Law>(s, materials, i, j)));
+        const auto table_constants = [&] {
+          return materials.law_constants<Law::friction, Law::rolling>(pair_inputs(s, materials, i, j));
+        };
+        const LawConstants& constants = memo.get(kinds_i | nb.kind[j], table_constants);
+        DEM_VALIDATE(law_constants_equal(constants, table_constants()));
         evaluate_pair<Law>(s, constants, c, k, i, j, h, d, books, Law::uses_rotation ? &nb.moment[k] : nullptr);
         nb.touching[k] = touching_yes;
         // The row's deepest: the first of equal ratios, a NaN before any number (deepest_contact).
@@ -270,7 +266,7 @@ template <class Law>
 void wall_forces(const State& s, const MaterialTable& materials, const Walls& walls, WallContacts& c,
                  const std::vector<WallTouch>& touches, Real h, const DashpotVelocity& d) {
   DEM_ASSERT(touches.size() == c.size());
-  const auto contact_force = [&](LawConstantsMemo<LawInputKey>& memo, std::size_t k) {
+  const auto contact_force = [&](LawConstantsMemo<LawInputs>& memo, std::size_t k) {
     const ParticleIndex p = c.particle[k];
     const std::uint32_t w = c.wall[k];
     // Contacts are rebuilt at these very positions: every one touches, with this geometry.
@@ -297,13 +293,10 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
     kin.onset = c.overlap[k] == 0;  // a new contact: no evaluation has stored its overlap yet
     ContactHistory& history = c.history[k];
     if (history.impact_energy < 0) history.impact_energy = 0.5 * kin.overlap_rate * kin.overlap_rate / s.inv_mass[p];
-    constexpr Real wall_radius = std::numeric_limits<Real>::infinity();
-    const std::uint16_t pair_class = materials.pair_class(s.material[p], walls.material(w));
+    const LawInputs inputs{materials.pair_class(s.material[p], walls.material(w)), s.inv_mass[p], s.inv_inertia[p],
+                           s.radius[p], 0, 0, std::numeric_limits<Real>::infinity()};
     const LawConstants& constants =
-        memo.get(law_input_key(pair_class, s.inv_mass[p], s.inv_inertia[p], s.radius[p], 0, 0, wall_radius), [&] {
-          return materials.law_constants<Law::friction, Law::rolling>(pair_class, s.inv_mass[p], s.inv_inertia[p],
-                                                                      s.radius[p], 0, 0, wall_radius);
-        });
+        memo.get(inputs, [&] { return materials.law_constants<Law::friction, Law::rolling>(inputs); });
     const ContactResponse r = Law::evaluate(constants, kin, history, h);
     history.normal_work += h * r.normal_power;
     history.normal_elastic = r.normal_elastic;
@@ -320,7 +313,7 @@ void wall_forces(const State& s, const MaterialTable& materials, const Walls& wa
     }
   };
   parallel_chunks(c.size(), [&](std::size_t begin, std::size_t end) {
-    LawConstantsMemo<LawInputKey> memo;
+    LawConstantsMemo<LawInputs> memo;
     for (std::size_t k = begin; k < end; ++k) contact_force(memo, k);
   });
 }

@@ -36,6 +36,23 @@ struct LawConstants {
   Real r_star;          // effective radius [m]
 };
 
+/// What a contact's law constants are made from (MaterialTable::law_constants): the pair's class and
+/// both sides' inverse masses, inverse inertias and radii (a wall: 0, 0 and infinity). Compared as
+/// bits, so that equal inputs give equal constants (-0 and +0 differ).
+struct LawInputs {
+  std::uint16_t pair_class;
+  Real inv_m_i, inv_i_i, r_i;  // [1/kg], [1/(kg m^2)], [m]
+  Real inv_m_j, inv_i_j, r_j;
+
+  bool operator==(const LawInputs& o) const {
+    const auto same = [](Real a, Real b) {
+      return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b);
+    };
+    return pair_class == o.pair_class && same(inv_m_i, o.inv_m_i) && same(inv_i_i, o.inv_i_i) && same(r_i, o.r_i) &&
+           same(inv_m_j, o.inv_m_j) && same(inv_i_j, o.inv_i_j) && same(r_j, o.r_j);
+  }
+};
+
 /// Effective masses of a contact (docs/physics.md 1.3): m*, tangential m_t, I* and R*.
 struct EffectiveMasses {
   Real m_star;  // [kg]
@@ -92,28 +109,27 @@ class MaterialTable {
   /// Constants of one contact of class `pair_class` with effective masses `m`.
   LawConstants constants(std::uint16_t pair_class, const EffectiveMasses& m) const;
 
-  /// The constants a law reads, for a contact of particles i and j (a wall: inverse mass and
-  /// inertia 0, radius infinity). The force loops call this per contact instead of storing 96 bytes
+  /// The constants a law reads, for a contact of particles i and j with inputs `in`. The force loops call this per contact instead of storing 96 bytes
   /// per contact; particles never change mass or radius, so the values are those `constants` gives
   /// (same expressions, bit for bit). Without friction only k_n and c_n are set, without rolling
   /// no rolling fields; m_t and the divisions behind it only when the tangential damping needs them.
   template <bool Friction, bool Rolling>
-  LawConstants law_constants(std::uint16_t pair_class, Real inv_m_i, Real inv_i_i, Real r_i, Real inv_m_j,
-                             Real inv_i_j, Real r_j) const {
+  LawConstants law_constants(const LawInputs& in) const {
     if constexpr (Rolling) {
-      return constants(pair_class, effective_masses(inv_m_i, inv_i_i, r_i, inv_m_j, inv_i_j, r_j));
+      return constants(in.pair_class,
+                       effective_masses(in.inv_m_i, in.inv_i_i, in.r_i, in.inv_m_j, in.inv_i_j, in.r_j));
     } else {
-      const PairParams& p = params_[pair_class];
+      const PairParams& p = params_[in.pair_class];
       LawConstants c{};
-      const Real inv_m = inv_m_i + inv_m_j;
+      const Real inv_m = in.inv_m_i + in.inv_m_j;
       const Real m_star = 1 / inv_m;  // as effective_masses
       c.k_n = p.k_n;
       c.c_n = damping_coefficient(p.normal_damping, p.k_n, m_star, m_star);
       if constexpr (Friction) {
         Real m_t = 0;  // only a damping ratio refers to m_t
         if (p.tangential_damping.kind == DampingKind::damping_ratio) {
-          const Real arm_j = std::isinf(r_j) ? 0 : r_j;
-          m_t = 1 / (inv_m + r_i * r_i * inv_i_i + arm_j * arm_j * inv_i_j);
+          const Real arm_j = std::isinf(in.r_j) ? 0 : in.r_j;
+          m_t = 1 / (inv_m + in.r_i * in.r_i * in.inv_i_i + arm_j * arm_j * in.inv_i_j);
         }
         c.k_t = p.k_t;
         c.c_t = damping_coefficient(p.tangential_damping, p.k_t, m_t, m_star);
@@ -133,26 +149,11 @@ class MaterialTable {
   bool any_rolling_ = false;
 };
 
-/// The inputs of MaterialTable::law_constants as bits: two pairs with equal keys have equal constants.
-struct LawInputKey {
-  std::uint64_t bits[6];  // the inverse masses, inverse inertias and radii
-  std::uint16_t pair_class;
-  bool operator==(const LawInputKey&) const = default;
-};
-
-inline LawInputKey law_input_key(std::uint16_t pair_class, Real inv_m_i, Real inv_i_i, Real r_i, Real inv_m_j,
-                                 Real inv_i_j, Real r_j) {
-  return {{std::bit_cast<std::uint64_t>(inv_m_i), std::bit_cast<std::uint64_t>(inv_i_i),
-           std::bit_cast<std::uint64_t>(r_i), std::bit_cast<std::uint64_t>(inv_m_j),
-           std::bit_cast<std::uint64_t>(inv_i_j), std::bit_cast<std::uint64_t>(r_j)},
-          pair_class};
-}
-
 /// The law constants of the last pair asked for, handed out again while the next pair's key
 /// repeats: a row's partners, and neighbouring rows, are mostly alike (one kind of ball in a mill),
 /// and with rolling resistance the constants take four divisions and four roots. `Key` must decide
-/// the constants: a LawInputKey, or the two particles' kinds (particle_kinds.h). Scratch of one
-/// thread's stretch of a loop.
+/// the constants: the LawInputs themselves, or the two particles' kinds (particle_kinds.h). Scratch
+/// of one thread's stretch of a loop.
 template <class Key>
 class LawConstantsMemo {
  public:

@@ -15,12 +15,6 @@
 namespace dem {
 namespace {
 
-// One pair's inputs, as the force loops pass them.
-struct PairInputs {
-  std::uint16_t pair_class;
-  Real inv_m_i, inv_i_i, r_i, inv_m_j, inv_i_j, r_j;
-};
-
 bool same_bits(const LawConstants& a, const LawConstants& b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
 MaterialTable two_material_table() {
@@ -40,21 +34,17 @@ MaterialTable two_material_table() {
 }
 
 template <bool Friction, bool Rolling>
-LawConstants table_constants(const MaterialTable& table, const PairInputs& p) {
-  return table.law_constants<Friction, Rolling>(p.pair_class, p.inv_m_i, p.inv_i_i, p.r_i, p.inv_m_j, p.inv_i_j, p.r_j);
-}
-
-LawInputKey key_of(const PairInputs& p) {
-  return law_input_key(p.pair_class, p.inv_m_i, p.inv_i_i, p.r_i, p.inv_m_j, p.inv_i_j, p.r_j);
+LawConstants table_constants(const MaterialTable& table, const LawInputs& p) {
+  return table.law_constants<Friction, Rolling>(p);
 }
 
 template <bool Friction, bool Rolling>
-void expect_memo_matches_table(const MaterialTable& table, const std::vector<PairInputs>& pairs) {
-  LawConstantsMemo<LawInputKey> memo;
+void expect_memo_matches_table(const MaterialTable& table, const std::vector<LawInputs>& pairs) {
+  LawConstantsMemo<LawInputs> memo;
   for (std::size_t k = 0; k < pairs.size(); ++k) {
-    const PairInputs& p = pairs[k];
+    const LawInputs& p = pairs[k];
     const LawConstants expected = table_constants<Friction, Rolling>(table, p);
-    const LawConstants& got = memo.get(key_of(p), [&] { return table_constants<Friction, Rolling>(table, p); });
+    const LawConstants& got = memo.get(p, [&] { return table_constants<Friction, Rolling>(table, p); });
     EXPECT_TRUE(same_bits(got, expected)) << "pair " << k << " (Friction " << Friction << ", Rolling " << Rolling
                                           << "): k_n " << got.k_n << " against " << expected.k_n << ", c_n " << got.c_n
                                           << " against " << expected.c_n;
@@ -69,19 +59,19 @@ TEST(LawConstantsMemo, GivesTheTablesConstantsForEveryPairInAnyOrder) {
   // A ball of radius 5 mm and one of 2 mm (inverse masses and inertias of steel spheres), a wall.
   const Real m5 = 1 / (7800 * 4.0 / 3.0 * 3.14159 * 1.25e-7), i5 = m5 / (0.4 * 25e-6);
   const Real m2 = 1 / (7800 * 4.0 / 3.0 * 3.14159 * 8e-9), i2 = m2 / (0.4 * 4e-6);
-  const PairInputs big_big{same, m5, i5, 0.005, m5, i5, 0.005};
-  const PairInputs big_small{same, m5, i5, 0.005, m2, i2, 0.002};
-  const PairInputs big_small_mixed{mixed, m5, i5, 0.005, m2, i2, 0.002};
-  const PairInputs small_small{same, m2, i2, 0.002, m2, i2, 0.002};
-  const PairInputs big_wall{same, m5, i5, 0.005, 0, 0, inf};
-  const PairInputs small_wall{mixed, m2, i2, 0.002, 0, 0, inf};
+  const LawInputs big_big{same, m5, i5, 0.005, m5, i5, 0.005};
+  const LawInputs big_small{same, m5, i5, 0.005, m2, i2, 0.002};
+  const LawInputs big_small_mixed{mixed, m5, i5, 0.005, m2, i2, 0.002};
+  const LawInputs small_small{same, m2, i2, 0.002, m2, i2, 0.002};
+  const LawInputs big_wall{same, m5, i5, 0.005, 0, 0, inf};
+  const LawInputs small_wall{mixed, m2, i2, 0.002, 0, 0, inf};
   // Repeats (the memo's hits) between changes of every single input (its misses).
-  std::vector<PairInputs> pairs{big_big,   big_big,     big_small, big_small,       big_small_mixed,
+  std::vector<LawInputs> pairs{big_big,   big_big,     big_small, big_small,       big_small_mixed,
                                 big_big,   small_small, big_wall,  big_wall,        small_wall,
                                 big_small, big_big,     big_small_mixed, small_small, big_big};
-  PairInputs changed = big_big;
-  for (Real PairInputs::*field : {&PairInputs::inv_m_i, &PairInputs::inv_i_i, &PairInputs::r_i, &PairInputs::inv_m_j,
-                                  &PairInputs::inv_i_j, &PairInputs::r_j}) {
+  LawInputs changed = big_big;
+  for (Real LawInputs::*field : {&LawInputs::inv_m_i, &LawInputs::inv_i_i, &LawInputs::r_i, &LawInputs::inv_m_j,
+                                  &LawInputs::inv_i_j, &LawInputs::r_j}) {
     changed = big_big;
     changed.*field *= 1.5;
     pairs.push_back(changed);
@@ -98,11 +88,11 @@ TEST(LawConstantsMemo, TellsASignedZeroFromAnUnsignedOne) {
   const MaterialTable table = two_material_table();
   const std::uint16_t same = table.pair_class(0, 0);
   const Real inf = std::numeric_limits<Real>::infinity();
-  const PairInputs plus{same, 0.0, 0.0, 0.005, 0.0, 0.0, inf};
-  const PairInputs minus{same, -0.0, -0.0, 0.005, -0.0, -0.0, inf};
-  LawConstantsMemo<LawInputKey> memo;
-  const LawConstants first = memo.get(key_of(plus), [&] { return table_constants<true, true>(table, plus); });
-  const LawConstants second = memo.get(key_of(minus), [&] { return table_constants<true, true>(table, minus); });
+  const LawInputs plus{same, 0.0, 0.0, 0.005, 0.0, 0.0, inf};
+  const LawInputs minus{same, -0.0, -0.0, 0.005, -0.0, -0.0, inf};
+  LawConstantsMemo<LawInputs> memo;
+  const LawConstants first = memo.get(plus, [&] { return table_constants<true, true>(table, plus); });
+  const LawConstants second = memo.get(minus, [&] { return table_constants<true, true>(table, minus); });
   const LawConstants expected = table_constants<true, true>(table, minus);
   EXPECT_TRUE(same_bits(second, expected));
   EXPECT_FALSE(same_bits(first, second)) << "m* = 1 / (+0) and 1 / (-0) differ in sign, so the constants do";
@@ -170,7 +160,7 @@ TEST(ParticleKinds, AMemoKeyedOnKindsGivesTheTablesConstants) {
   std::size_t computed = 0;
   for (std::size_t i = 0; i < s.size(); ++i)
     for (std::size_t j = i + 1; j < s.size(); ++j) {
-      const PairInputs p{table.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i], s.radius[i],
+      const LawInputs p{table.pair_class(s.material[i], s.material[j]), s.inv_mass[i], s.inv_inertia[i], s.radius[i],
                          s.inv_mass[j], s.inv_inertia[j], s.radius[j]};
       const std::uint64_t key = std::uint64_t{kind[i]} << 32 | kind[j];
       const LawConstants& got = memo.get(key, [&] {
