@@ -68,7 +68,7 @@ namespace dem {
 namespace {
 
 constexpr char checkpoint_magic[8] = {'D', 'E', 'M', 'C', 'K', 'P', 'T', '1'};
-constexpr std::uint32_t checkpoint_version = 14;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra; 11: spectra per kind of size classes; 12: the scene's body hash, method, time and clock origin, for a start under other integrator settings; 13: the energy given by set_velocity; 14: the interval of the last re-sort of the particles in memory
+constexpr std::uint32_t checkpoint_version = 15;  // 8: pair contacts store only the parts their run uses; 9: exact pair histories hold their spring energy; 10: doubling runs book collision spectra; 11: spectra per kind of size classes; 12: the scene's body hash, method, time and clock origin, for a start under other integrator settings; 13: the energy given by set_velocity; 14: the interval of the last re-sort of the particles in memory; 15: the count of member retries
 
 class ByteWriter {
  public:
@@ -215,7 +215,7 @@ CheckpointContents read_checkpoint(const std::string& path, const ContactParts& 
   for (std::uint64_t* v : {&counters.sync_intervals, &counters.accepted_steps, &counters.rejected_steps,
                            &counters.forced_steps, &counters.particle_steps, &counters.force_evaluations,
                            &counters.pair_rebuilds, &counters.richardson_steps, &counters.round_redos,
-                           &counters.unresolved_contacts})
+                           &counters.unresolved_contacts, &counters.member_retries})
     *v = r.get<std::uint64_t>();
   r.get(counters.level_histogram);
   c.ended = r.get<Real>();
@@ -294,7 +294,7 @@ std::string World::checkpoint_bytes(const SceneHashes& hashes) const {
   for (std::uint64_t v : {counters_.sync_intervals, counters_.accepted_steps, counters_.rejected_steps,
                           counters_.forced_steps, counters_.particle_steps, counters_.force_evaluations,
                           counters_.pair_rebuilds, counters_.richardson_steps, counters_.round_redos,
-                          counters_.unresolved_contacts})
+                          counters_.unresolved_contacts, counters_.member_retries})
     w.put(v);
   w.put(counters_.level_histogram);
   w.put(ended_dissipation_);

@@ -136,6 +136,7 @@ class ContactEvents {
   void record_ended(const PairContacts& before, const std::vector<std::uint64_t>& after_key);
   void record_ended(const WallContacts& before, const WallContacts& after);
   void record_pair(std::uint64_t key, const ContactHistory& history, Real work, Real elastic);
+  void add(const Event& event) { events_.push_back(event); }
   void append(const ContactEvents& other) { events_.insert(events_.end(), other.events_.begin(), other.events_.end()); }
   void clear() { events_.clear(); }
   const std::vector<Event>& events() const { return events_; }

@@ -258,7 +258,8 @@ Real update_pair_contacts(const State& s, const broadphase::CandidatePairs& cand
 }
 
 Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTable& materials, WallContacts& contacts,
-                          ContactWorkspace& work, std::vector<std::uint32_t>& wall_start, const WallLists* lists) {
+                          ContactWorkspace& work, std::vector<std::uint32_t>& wall_start, const WallLists* lists,
+                          std::vector<EndedContact>* ended_log) {
   const std::size_t n = s.size();
   // Calls visit(w) for each wall particle p is tested against, in ascending order.
   const auto for_each_wall = [&](std::size_t p, auto&& visit) {
@@ -347,6 +348,10 @@ Real update_wall_contacts(const State& s, const Walls& walls, const MaterialTabl
     if (find_wall_contact(fresh, contacts.particle[k], contacts.key[k]) < 0)
       end_wall_contact(s, walls, materials, contacts, k);
   });
+  if (ended_log)
+    for (std::size_t k = 0; k < contacts.size(); ++k)
+      if (find_wall_contact(fresh, contacts.particle[k], contacts.key[k]) < 0)
+        ended_log->push_back({contacts.key[k], true, contacts.work[k] - contacts.elastic[k]});
   const Real ended = live_dissipation(contacts.work, contacts.elastic) - live_dissipation(fresh.work, fresh.elastic);
   std::swap(contacts, fresh);
   return ended;

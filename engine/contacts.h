@@ -202,6 +202,14 @@ struct ContactWorkspace {
 
 /// Called by update_pair_contacts while the old list's keys and carried fields are still whole
 /// (its i and j already hold the new list's), with the new list's keys.
+/// One contact that ended, for books kept per contact: its key (pair_key, or wall_key when `wall`)
+/// and what it dissipated, its work less what its springs held [J].
+struct EndedContact {
+  std::uint64_t key = 0;
+  bool wall = false;
+  Real dissipated = 0;
+};
+
 using EndedPairsHook = std::function<void(const PairContacts& before, const std::vector<std::uint64_t>& after_key)>;
 
 /// Replaces `contacts` by the overlapping candidate pairs, inheriting history by key, in place: only
@@ -216,10 +224,11 @@ Real update_pair_contacts(const State& state, const broadphase::CandidatePairs& 
 /// Replaces `contacts` by the current particle-wall overlaps, inheriting history by key, and leaves
 /// each new contact's geometry in work.wall_touch for the force loop. Returns the energy dissipated by
 /// the contacts that ended [J]. With `lists` (valid for this state, wall_lists.h) each particle is
-/// tested against its listed walls only; without, against every wall: the same list.
+/// tested against its listed walls only; without, against every wall: the same list. With `ended`,
+/// appends each contact that ended, in the old list's order.
 Real update_wall_contacts(const State& state, const Walls& walls, const MaterialTable& materials,
                           WallContacts& contacts, ContactWorkspace& work, std::vector<std::uint32_t>& wall_start,
-                          const WallLists* lists = nullptr);
+                          const WallLists* lists = nullptr, std::vector<EndedContact>* ended = nullptr);
 
 /// After State::permute(order), with new_of_old[order[q]] = q: the lists' slots renumbered and put in
 /// the order a list of the new slots has (row order; by particle, then key), their history with

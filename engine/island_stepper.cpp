@@ -151,6 +151,7 @@ void DoublingCounters::add(const DoublingCounters& o) {
   particle_steps += o.particle_steps;
   force_evaluations += o.force_evaluations;
   richardson += o.richardson;
+  member_retries += o.member_retries;
   if (histogram.size() < o.histogram.size()) histogram.resize(o.histogram.size(), 0);
   for (std::size_t k = 0; k < o.histogram.size(); ++k) histogram[k] += o.histogram[k];
 }

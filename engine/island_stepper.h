@@ -18,6 +18,7 @@
 #include "engine/exact_stepper.h"
 #include "engine/forces.h"
 #include "engine/materials.h"
+#include "engine/member_retry.h"
 #include "engine/multilevel_stepper.h"
 #include "engine/state.h"
 #include "engine/step_watch.h"
@@ -81,6 +82,7 @@ struct IslandScratch {
   ExactWorkspace exact;
   IslandState full, half;           // the two trials
   MultilevelGroup levels_full, levels_half;  // the two trials with a level per particle
+  MemberRetry retry;                          // their retries of the members a rejection touches
   std::vector<Vec3> origin;         // member positions at the start of the round [m]
 };
 
@@ -88,6 +90,7 @@ struct IslandScratch {
 struct DoublingCounters {
   std::uint64_t accepted = 0, rejected = 0, forced = 0, particle_steps = 0, force_evaluations = 0;
   std::uint64_t richardson = 0;          // accepted steps that took the improved value
+  std::uint64_t member_retries = 0;      // tries that redid only part of an island (member_retry.h)
   std::vector<std::uint64_t> histogram;  // accepted particle-steps per level - level_min
   void add(const DoublingCounters& other);
 };

@@ -10,29 +10,6 @@
 namespace dem {
 namespace {
 
-/// The particles `members` of `s` (ascending slots), as a state of their own in `out`.
-void select(const State& s, const std::vector<ParticleIndex>& members, State& out) {
-  const std::size_t m = members.size();
-  out.id.resize(m), out.position.resize(m), out.velocity.resize(m), out.angular_velocity.resize(m);
-  out.force.resize(m), out.torque.resize(m), out.radius.resize(m), out.inv_mass.resize(m), out.inv_inertia.resize(m);
-  out.material.resize(m), out.level.resize(m);
-  out.index_of_id.clear();
-  for (std::size_t q = 0; q < m; ++q) {
-    const ParticleIndex p = members[q];
-    out.id[q] = s.id[p];
-    out.position[q] = s.position[p];
-    out.velocity[q] = s.velocity[p];
-    out.angular_velocity[q] = s.angular_velocity[p];
-    out.force[q] = s.force[p];
-    out.torque[q] = s.torque[p];
-    out.radius[q] = s.radius[p];
-    out.inv_mass[q] = s.inv_mass[p];
-    out.inv_inertia[q] = s.inv_inertia[p];
-    out.material[q] = s.material[p];
-    out.level[q] = s.level[p];
-  }
-}
-
 /// Makes `v` hold `count` elements, keeping the storage of those it already held.
 template <class T>
 void resize_keeping(std::vector<T>& v, std::size_t count) {
@@ -41,6 +18,8 @@ void resize_keeping(std::vector<T>& v, std::size_t count) {
 }
 
 void flatten_to_plane(Vec3& v) { v.z() = 0; }
+
+constexpr std::uint32_t no_impulse = 0xffffffffu;  // a slot that has not touched in this advance
 void spin_about_normal(Vec3& w) { w.x() = 0, w.y() = 0; }
 
 }  // namespace
@@ -53,7 +32,8 @@ MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candida
 
 void MultilevelGroup::reset(const State& state, const broadphase::CandidatePairs& candidates, Walls& walls,
                             const MultilevelPhysics& physics, Real time, const std::vector<int>& levels,
-                            const PairContacts& pairs, const WallContacts& wall_contacts) {
+                            const PairContacts& pairs, const WallContacts& wall_contacts,
+                            const std::vector<ReplayedPath>* replay) {
   physics_ = physics;
   tick_ = std::ldexp(physics_.dt_base, physics_.level_min);
   state_ = state;
@@ -65,6 +45,14 @@ void MultilevelGroup::reset(const State& state, const broadphase::CandidatePairs
   wall_work_ = 0;
   events_.clear();
   particle_steps_ = 0;
+  ended_log_.clear();
+  particle_wall_work_.assign(state.size(), 0);
+  if (replay) {
+    DEM_ASSERT(replay->size() == state.size());
+    replayed_ = *replay;
+  } else {
+    replayed_.clear();
+  }
   DEM_ASSERT(candidates_.row_count() == state_.size());
   rotation_ = physics_.kernels.uses_rotation;
   parts_ = {physics_.materials->any_friction(), physics_.materials->any_rolling(), physics_.book_events};
@@ -125,6 +113,7 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
   resize_keeping(rows_, count);
   resize_keeping(participants_, count);
   resize_keeping(members_, count);
+  resize_keeping(wall_members_, count);
   resize_keeping(wall_contacts_, count);
   resize_keeping(member_state_, count);
   resize_keeping(wall_start_, count);
@@ -195,10 +184,13 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
   // Members, their states and wall contacts by particle level.
   member_index_.resize(n);
   for (auto& m : members_) m.clear();
+  for (auto& m : wall_members_) m.clear();
   for (std::size_t p = 0; p < n; ++p) {
-    std::vector<ParticleIndex>& m = members_[level_index(level_[p])];
-    member_index_[p] = static_cast<std::uint32_t>(m.size());
-    m.push_back(static_cast<ParticleIndex>(p));
+    const std::size_t l = level_index(level_[p]);
+    members_[l].push_back(static_cast<ParticleIndex>(p));
+    if (replayed(static_cast<ParticleIndex>(p))) continue;
+    member_index_[p] = static_cast<std::uint32_t>(wall_members_[l].size());
+    wall_members_[l].push_back(static_cast<ParticleIndex>(p));
   }
   fill_.assign(count, 0);
   for (std::size_t k = 0; k < wall_contacts.size(); ++k) ++fill_[level_index(level_[wall_contacts.particle[k]])];
@@ -206,6 +198,7 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
   fill_.assign(count, 0);
   for (std::size_t k = 0; k < wall_contacts.size(); ++k) {
     const ParticleIndex p = wall_contacts.particle[k];
+    DEM_ASSERT(!replayed(p));
     const std::size_t l = level_index(level_[p]);
     WallContacts& w = wall_contacts_[l];
     const std::size_t at = fill_[l]++;
@@ -213,8 +206,8 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
     w.particle[at] = member_index_[p];
   }
   for (std::size_t l = 0; l < count; ++l) {
-    select(state_, members_[l], member_state_[l]);
-    wall_start_[l].assign(members_[l].size() + 1, 0);
+    select_particles(state_, wall_members_[l], member_state_[l]);
+    wall_start_[l].assign(wall_members_[l].size() + 1, 0);
   }
 }
 
@@ -233,7 +226,7 @@ void MultilevelGroup::wall_contacts(WallContacts& out) const {
   for (std::size_t q = 0; q < order.size(); ++q) {
     const auto [l, k] = order[q].second;
     copy_wall(wall_contacts_[l], k, out, q);
-    out.particle[q] = members_[l][wall_contacts_[l].particle[k]];
+    out.particle[q] = wall_members_[l][wall_contacts_[l].particle[k]];
   }
 }
 
@@ -243,12 +236,13 @@ void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
   if (nb.size() > 0 || !nb.left_start.empty()) {
     physics_.kernels.neighbour_forces(view_, *physics_.materials, nb, h, dashpot);
     ended_dissipation_ +=
-        finish_ended_contacts(view_, nb, rebuilt_from_[c], physics_.book_events ? &events_ : nullptr);
+        finish_ended_contacts(view_, nb, rebuilt_from_[c], physics_.book_events ? &events_ : nullptr, &ended_log_);
   }
-  if (members_[c].empty() || walls_->count() == 0) return;
+  const std::vector<ParticleIndex>& members = wall_members_[c];
+  if (members.empty() || walls_->count() == 0) return;
   State& sub = member_state_[c];
-  for (std::size_t q = 0; q < members_[c].size(); ++q) {
-    const ParticleIndex p = members_[c][q];
+  for (std::size_t q = 0; q < members.size(); ++q) {
+    const ParticleIndex p = members[q];
     sub.position[q] = view_.position[p];
     sub.velocity[q] = view_.velocity[p];
     sub.angular_velocity[q] = view_.angular_velocity[p];
@@ -259,12 +253,20 @@ void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
     if (!level_lists.valid(sub, *walls_)) level_lists.build(sub, *walls_, physics_.wall_margin);
     lists = &level_lists;
   }
-  ended_dissipation_ +=
-      update_wall_contacts(sub, *walls_, *physics_.materials, wall_contacts_[c], workspace_, wall_start_[c], lists);
+  ended_dissipation_ += update_wall_contacts(sub, *walls_, *physics_.materials, wall_contacts_[c], workspace_,
+                                             wall_start_[c], lists, &ended_log_);
   if (physics_.book_events) events_.record_ended(workspace_.walls, wall_contacts_[c]);
   physics_.kernels.wall_forces(sub, *physics_.materials, *walls_, wall_contacts_[c], workspace_.wall_touch, h, dashpot);
-  // Work of moving walls, with the forces at the end of the step (a rectangle rule, as the fixed step's).
-  if (physics_.walls_move) wall_work_ += h * wall_power(*walls_, wall_contacts_[c]);
+  // Work of moving walls, with the forces at the end of the step (a rectangle rule, as the fixed step's),
+  // and each particle's share of it.
+  if (physics_.walls_move) {
+    const WallContacts& w = wall_contacts_[c];
+    wall_work_ += h * wall_power(*walls_, w);
+    for (std::size_t k = 0; k < w.size(); ++k)
+      particle_wall_work_[members[w.particle[k]]] +=
+          h * (w.force[k].dot(walls_->velocity_at(w.wall[k], w.point[k])) +
+               w.rolling_torque[k].dot(walls_->angular_velocity(w.wall[k])));
+  }
 }
 
 void MultilevelGroup::add_load(ParticleIndex p, Vec3 force, Vec3 torque, Real weight) {
@@ -291,10 +293,11 @@ void MultilevelGroup::clear_loads() {
   loaded_list_.clear();
 }
 
-void MultilevelGroup::add_level_loads(std::size_t c, bool use_stored_normal) {
+void MultilevelGroup::add_level_loads(std::size_t c, bool use_stored_normal, Real impulse_weight, Real remaining) {
   const Real weight = 0.5 * step_of_index(c);
   const NeighbourContacts& nb = neighbours_[c];
   const PairContacts& list = nb.list;
+  std::vector<std::uint32_t>& impulse_of = impulse_of_[c];
   for (ParticleIndex i : rows_[c]) {
     for (std::uint32_t k = list.row_start[i]; k < list.row_start[i + 1]; ++k) {
       if (nb.touching[k] != touching_yes) continue;
@@ -310,11 +313,20 @@ void MultilevelGroup::add_level_loads(std::size_t c, bool use_stored_normal) {
       }
       add_load(i, f, torque_i, weight);
       add_load(j, -f, torque_j, weight);
+      if (impulse_of[k] == no_impulse) {
+        impulse_of[k] = static_cast<std::uint32_t>(impulses_.size());
+        impulses_.push_back({i, j});
+      }
+      ContactImpulse& sum = impulses_[impulse_of[k]];
+      sum.impulse += impulse_weight * f;
+      sum.moment += (impulse_weight * remaining) * f;
+      sum.angular_i += impulse_weight * torque_i;
+      sum.angular_j += impulse_weight * torque_j;
     }
   }
   const WallContacts& w = wall_contacts_[c];
   for (std::size_t k = 0; k < w.size(); ++k)
-    add_load(members_[c][w.particle[k]], w.force[k], rotation_ ? w.torque[k] : Vec3(Vec3::Zero()), weight);
+    add_load(wall_members_[c][w.particle[k]], w.force[k], rotation_ ? w.torque[k] : Vec3(Vec3::Zero()), weight);
 }
 
 void MultilevelGroup::begin_step(ParticleIndex p, std::int64_t t) {
@@ -323,13 +335,21 @@ void MultilevelGroup::begin_step(ParticleIndex p, std::int64_t t) {
   s.start = t;
   s.ticks = ticks_of_index(level_index(level_[p]));
   const Real h = step_of_index(level_index(level_[p]));
-  s.x0 = state_.position[p];
-  s.v0 = state_.velocity[p];
-  s.w0 = state_.angular_velocity[p];
-  const Real inv_m = state_.inv_mass[p];
-  s.a0 = inv_m == 0 ? Vec3(Vec3::Zero()) : Vec3(inv_m * l.force + physics_.gravity);
-  s.alpha0 = state_.inv_inertia[p] * l.torque;
-  if (physics_.dimension == 2) flatten_to_plane(s.a0);
+  if (replayed(p)) {
+    const StepRecord& r = replayed_step(p, t, s.ticks);
+    state_.position[p] = r.x0, state_.velocity[p] = r.v0, state_.angular_velocity[p] = r.w0;
+    s.x0 = r.x0, s.v0 = r.v0, s.w0 = r.w0, s.a0 = r.a0, s.alpha0 = r.alpha0;
+  } else {
+    s.x0 = state_.position[p];
+    s.v0 = state_.velocity[p];
+    s.w0 = state_.angular_velocity[p];
+    const Real inv_m = state_.inv_mass[p];
+    s.a0 = inv_m == 0 ? Vec3(Vec3::Zero()) : Vec3(inv_m * l.force + physics_.gravity);
+    s.alpha0 = state_.inv_inertia[p] * l.torque;
+    if (physics_.dimension == 2) flatten_to_plane(s.a0);
+    StepRecord& r = record(p, t, s.ticks);
+    r.x0 = s.x0, r.v0 = s.v0, r.w0 = s.w0, r.a0 = s.a0, r.alpha0 = s.alpha0;
+  }
   s.impulse = l.weighted_force;
   s.moment = h * l.weighted_force;
   s.angular_impulse = l.weighted_torque;
@@ -343,6 +363,12 @@ void MultilevelGroup::finish_positions(std::size_t due) {
     const Real h = step_of_index(index);
     for (ParticleIndex p : members_[index]) {
       const Step& s = step_[p];
+      if (replayed(p)) {
+        const bool last = s.start + s.ticks == advance_ticks_;
+        const Vec3 x = last ? replayed_[p].end_position : replayed_step(p, s.start + s.ticks, s.ticks).x0;
+        state_.position[p] = view_.position[p] = x;
+        continue;
+      }
       const Real inv_m = state_.inv_mass[p];
       Vec3 x = s.x0 + h * s.v0;
       if (inv_m != 0) x += (0.5 * h * h) * physics_.gravity + inv_m * s.moment;
@@ -380,12 +406,21 @@ void MultilevelGroup::set_view_motion(std::int64_t t, std::size_t c) {
   // The finer sides: their mean velocity over the step just ended, (x - x0) / H.
   for (ParticleIndex p : members_[c]) {
     const Step& s = step_[p];
+    if (replayed(p)) {
+      const StepRecord& r = replayed_step(p, s.start, s.ticks);
+      view_.velocity[p] = r.mean_velocity;
+      view_.angular_velocity[p] = r.mean_spin;
+      continue;
+    }
     const Real inv_m = state_.inv_mass[p];
     Vec3 v = s.v0;
     if (inv_m != 0) v += (0.5 * h_c) * physics_.gravity + (inv_m / h_c) * s.moment;
     view_.velocity[p] = v;
     view_.angular_velocity[p] = s.w0 + (state_.inv_inertia[p] / h_c) * s.angular_moment;
     plane(p);
+    StepRecord& r = record(p, s.start, s.ticks);
+    r.mean_velocity = view_.velocity[p];
+    r.mean_spin = view_.angular_velocity[p];
   }
   // The coarser sides: their prediction's mean over the substep [t - h_c, t].
   for (ParticleIndex p : participants_[c]) {
@@ -416,6 +451,19 @@ void MultilevelGroup::end_steps(std::int64_t t, std::size_t due, bool last) {
       Step& s = step_[p];
       const TickLoad& l = load_[p];
       const Real inv_m = state_.inv_mass[p];
+      if (replayed(p)) {
+        const ReplayedPath& path = replayed_[p];
+        const StepRecord* next = last ? nullptr : &replayed_step(p, s.start + s.ticks, s.ticks);
+        state_.velocity[p] = next ? next->v0 : path.end_velocity;
+        state_.angular_velocity[p] = next ? next->w0 : path.end_spin;
+        if (last) {
+          state_.force[p] = l.force;
+          state_.torque[p] = l.torque;
+        } else {
+          begin_step(p, t);
+        }
+        continue;
+      }
       if (inv_m != 0) {
         Vec3 v = s.v0 + h * physics_.gravity + inv_m * (s.impulse + l.weighted_force);
         Vec3 w = s.w0 + state_.inv_inertia[p] * (s.angular_impulse + l.weighted_torque);
@@ -445,16 +493,25 @@ void MultilevelGroup::advance(std::int64_t ticks) {
       throw std::invalid_argument("MultilevelGroup::advance: every particle's step must divide the ticks");
   }
   if (n == 0) return;
+  advance_ticks_ = ticks;
+  const Real tick = tick_length();
+  const Real duration = static_cast<Real>(ticks) * tick;
+  record_start_.assign(n + 1, 0);
+  for (std::size_t p = 0; p < n; ++p)
+    record_start_[p + 1] = record_start_[p] + static_cast<std::uint32_t>(ticks / ticks_of_index(level_index(level_[p])));
+  records_.resize(record_start_[n]);
+  impulses_.clear();
+  impulse_of_.resize(neighbours_.size());
+  for (std::size_t c = 0; c < neighbours_.size(); ++c) impulse_of_[c].assign(neighbours_[c].size(), no_impulse);
   // Every particle starts a step now, from the forces its contacts hold (the last evaluation, here).
   load_.assign(n, TickLoad{});
   loaded_.assign(n, 0);
   loaded_list_.clear();
-  for (std::size_t c = 0; c < neighbours_.size(); ++c) add_level_loads(c, false);
+  for (std::size_t c = 0; c < neighbours_.size(); ++c) add_level_loads(c, false, 0.5 * step_of_index(c), duration);
   step_.resize(n);
   for (std::size_t p = 0; p < n; ++p) begin_step(static_cast<ParticleIndex>(p), 0);
   clear_loads();
   const std::int64_t stride = ticks_of_index(finest);
-  const Real tick = tick_length();
   for (std::int64_t t = stride; t <= ticks; t += stride) {
     // Due: the particles whose step ends at t, the levels up to the largest that t is aligned to.
     std::size_t due = finest;
@@ -465,7 +522,9 @@ void MultilevelGroup::advance(std::int64_t ticks) {
     for (std::size_t c = finest; c <= due; ++c) {
       set_view_motion(t, c);
       evaluate_level(c, step_of_index(c));
-      add_level_loads(c, true);
+      // A force inside the advance bounds two substeps of its contact, the last one only one.
+      const Real h_c = step_of_index(c);
+      add_level_loads(c, true, t == ticks ? 0.5 * h_c : h_c, static_cast<Real>(ticks - t) * tick);
     }
     end_steps(t, due, t == ticks);
   }
@@ -521,12 +580,15 @@ std::size_t MultilevelGroup::memory_bytes() const {
                       heap_bytes(workspace_) + heap_bytes(step_) + heap_bytes(load_) + heap_bytes(loaded_) +
                       heap_bytes(loaded_list_) + heap_bytes(excursion_) + heap_bytes(miss_) + heap_bytes(origin_) +
                       heap_bytes(fill_) + heap_bytes(member_index_) + heap_bytes(seen_) +
-                      heap_bytes(level_step_);
+                      heap_bytes(level_step_) + heap_bytes(replayed_) + heap_bytes(records_) +
+                      heap_bytes(record_start_) + heap_bytes(impulses_) + heap_bytes(ended_log_) +
+                      heap_bytes(particle_wall_work_);
   const auto each = [&](const auto& per_level) {
     total += heap_bytes(per_level);
     for (const auto& item : per_level) total += heap_bytes(item);
   };
-  each(level_candidates_), each(neighbours_), each(rebuilt_from_), each(compact_), each(members_),
+  each(level_candidates_), each(neighbours_), each(rebuilt_from_), each(compact_), each(members_), each(wall_members_),
+      each(impulse_of_),
       each(member_state_), each(wall_contacts_), each(wall_start_), each(rows_), each(participants_);
   total += heap_bytes(wall_lists_);
   for (const WallLists& lists : wall_lists_) total += lists.memory_bytes();

@@ -49,6 +49,31 @@ struct MultilevelPhysics {
   Real wall_margin = 0;
 };
 
+/// One step of a particle in MultilevelGroup::advance: where it started and how its partners saw
+/// it, enough for another group to replay its path without integrating it.
+struct StepRecord {
+  Vec3 x0, v0, w0;     // start position, velocity, spin
+  Vec3 a0, alpha0;     // start acceleration (with gravity) and angular acceleration
+  Vec3 mean_velocity, mean_spin;  // over the step, as the contacts of its level saw them at its end
+};
+
+/// A particle that follows a recorded path instead of integrating its forces: its steps (as many as
+/// its level takes in the advance, from MultilevelGroup::step_records) and where the path ends.
+struct ReplayedPath {
+  const StepRecord* steps = nullptr;  // nullptr: the particle is integrated as usual
+  Vec3 end_position = Vec3::Zero(), end_velocity = Vec3::Zero(), end_spin = Vec3::Zero();
+};
+
+/// What one pair contact gave its two particles over an advance(), by the weights the steps booked:
+/// the impulse on its row's side i (j got the negative), that impulse's first moment about the
+/// advance's end, and the angular impulse on each side.
+struct ContactImpulse {
+  ParticleIndex i = 0, j = 0;  // group slots
+  Vec3 impulse = Vec3::Zero();    // [N s]
+  Vec3 moment = Vec3::Zero();     // [N s^2]
+  Vec3 angular_i = Vec3::Zero(), angular_j = Vec3::Zero();  // [N m s]
+};
+
 class MultilevelGroup {
  public:
   /// An empty group, to be set by reset() (a scratch reused from chunk to chunk keeps its storage).
@@ -67,9 +92,13 @@ class MultilevelGroup {
 
   /// What the second constructor does, into this group's storage: the per-particle and per-contact
   /// vectors keep their capacity, so a scratch group reset chunk after chunk allocates little.
+  /// With `replay` (one per particle, kept by the caller while the group advances), a particle with
+  /// steps follows its path: its contacts with integrated partners are evaluated on it, it gets no
+  /// wall contacts, and its own loads move nothing. Its contacts with other replayed particles must
+  /// not be among the candidates.
   void reset(const State& state, const broadphase::CandidatePairs& candidates, Walls& walls,
              const MultilevelPhysics& physics, Real time, const std::vector<int>& levels, const PairContacts& pairs,
-             const WallContacts& wall_contacts);
+             const WallContacts& wall_contacts, const std::vector<ReplayedPath>* replay = nullptr);
 
   /// New levels (at a time every old and new step divides); contacts keep their history and last force.
   void set_levels(const std::vector<int>& levels);
@@ -102,8 +131,19 @@ class MultilevelGroup {
   const std::vector<Real>& prediction_miss() const { return miss_; }
   /// Contacts that ended so far (physics.book_events).
   const ContactEvents& events() const { return events_; }
-  /// Particle-steps taken so far: each particle's steps, summed.
+  /// Particle-steps taken so far: each integrated particle's steps, summed.
   std::uint64_t particle_steps() const { return particle_steps_; }
+  /// The steps of the last advance(): particle p's are step_records()[record_start(p) ..
+  /// record_start(p + 1)], in time order.
+  const std::vector<StepRecord>& step_records() const { return records_; }
+  std::uint32_t record_start(std::size_t p) const { return record_start_[p]; }
+  /// Every pair contact that touched at an evaluation of the last advance() (its start included),
+  /// in the order they first touched.
+  const std::vector<ContactImpulse>& contact_impulses() const { return impulses_; }
+  /// The contacts that ended since the last reset, in the order they ended.
+  const std::vector<EndedContact>& ended_contacts() const { return ended_log_; }
+  /// Per particle: the moving walls' work on it since the last reset (physics.walls_move) [J].
+  const std::vector<Real>& particle_wall_work() const { return particle_wall_work_; }
   /// Heap bytes held (memory_usage.h: by capacity).
   std::size_t memory_bytes() const;
 
@@ -140,7 +180,17 @@ class MultilevelGroup {
   void evaluate_level(std::size_t c, Real h);
   /// Adds what the contacts of level index c hold to load_ (moments stored by the last evaluation, or
   /// recomputed from the positions).
-  void add_level_loads(std::size_t c, bool use_stored_normal);
+  /// Each contact's force also adds `weight` times itself to its impulse, and `weight * remaining`
+  /// to its moment (remaining: from the evaluation to the advance's end [s]).
+  void add_level_loads(std::size_t c, bool use_stored_normal, Real weight, Real remaining);
+  bool replayed(ParticleIndex p) const { return !replayed_.empty() && replayed_[p].steps != nullptr; }
+  /// Particle p's record of the step that starts at tick `start`.
+  StepRecord& record(ParticleIndex p, std::int64_t start, std::int64_t ticks) {
+    return records_[record_start_[p] + static_cast<std::size_t>(start / ticks)];
+  }
+  const StepRecord& replayed_step(ParticleIndex p, std::int64_t start, std::int64_t ticks) const {
+    return replayed_[p].steps[start / ticks];
+  }
   void add_load(ParticleIndex p, Vec3 force, Vec3 torque, Real weight);
   void clear_loads();
   /// Positions at the end of the steps of the particles at level index <= due, from their books (in
@@ -175,9 +225,11 @@ class MultilevelGroup {
   std::vector<broadphase::CandidatePairs> level_candidates_;
   std::vector<NeighbourContacts> neighbours_;
   std::vector<PairContacts> rebuilt_from_;
-  // Per particle level index: its members (group slots, ascending), their sub-state for the wall
-  // contacts and those contacts (particle = index into the members).
+  // Per particle level index: its members (group slots, ascending), those with wall contacts (the
+  // integrated ones), their sub-state for the wall contacts and those contacts (particle = index
+  // into the wall members).
   std::vector<std::vector<ParticleIndex>> members_;
+  std::vector<std::vector<ParticleIndex>> wall_members_;
   std::vector<State> member_state_;
   std::vector<WallContacts> wall_contacts_;
   std::vector<std::vector<std::uint32_t>> wall_start_;
@@ -204,6 +256,14 @@ class MultilevelGroup {
   std::vector<Vec3> origin_;
   ContactEvents events_;
   std::uint64_t particle_steps_ = 0;
+  std::vector<ReplayedPath> replayed_;  // empty: every particle integrated
+  std::int64_t advance_ticks_ = 0;      // of the advance() under way
+  std::vector<StepRecord> records_;
+  std::vector<std::uint32_t> record_start_;
+  std::vector<ContactImpulse> impulses_;
+  std::vector<std::vector<std::uint32_t>> impulse_of_;  // per contact level index and slot: into impulses_
+  std::vector<EndedContact> ended_log_;
+  std::vector<Real> particle_wall_work_;
 };
 
 }  // namespace dem

@@ -132,7 +132,7 @@ void rebuild_neighbours(const State& s, const broadphase::CandidatePairs& by_slo
 }
 
 Real finish_ended_contacts(const State& s, NeighbourContacts& nb, const PairContacts& left_source,
-                           ContactEvents* events) {
+                           ContactEvents* events, std::vector<EndedContact>* ended_log) {
   const std::size_t n = nb.row_has_ended.size();
   if (std::find(nb.row_has_ended.begin(), nb.row_has_ended.end(), 1) == nb.row_has_ended.end()) return 0;
   // Rows without an ended contact add +0, so this is update_pair_contacts' sum bit for bit.
@@ -148,6 +148,7 @@ Real finish_ended_contacts(const State& s, NeighbourContacts& nb, const PairCont
       for (; q < q_end && nb.left_key[q] < key; ++q) {
         const std::uint32_t k = nb.left_behind[q];
         if (events) events->record_pair(nb.left_key[q], left_source.history(k), left_source.work[k], left_source.elastic[k]);
+        if (ended_log) ended_log->push_back({nb.left_key[q], false, nb.left_dissipated[q]});
       }
     };
     for (std::uint32_t k = c.row_start[a]; k < c.row_start[a + 1]; ++k) {
@@ -155,6 +156,7 @@ Real finish_ended_contacts(const State& s, NeighbourContacts& nb, const PairCont
       const std::uint64_t key = pair_key(s.id[a], s.id[c.j[k]]);
       book_left_before(key);
       if (events) events->record_pair(key, c.history(k), c.work[k], c.elastic[k]);
+      if (ended_log) ended_log->push_back({key, false, c.work[k] - c.elastic[k]});
       reset_neighbour(nb, k);
     }
     book_left_before(~std::uint64_t{0});

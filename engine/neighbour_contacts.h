@@ -79,9 +79,10 @@ void rebuild_neighbours(const State& state, const broadphase::CandidatePairs& ca
 /// After the force loop: books the contacts that ended, those it marked touching_ended and those
 /// the last rebuild left behind (read from `left_source`, the list rebuild_neighbours read), in key
 /// order into `events` when given; resets the slots; returns what they dissipated [J], summed row by
-/// row as update_pair_contacts sums the contacts that end.
+/// row as update_pair_contacts sums the contacts that end. With `ended`, appends each of them in the
+/// same order.
 Real finish_ended_contacts(const State& state, NeighbourContacts& neighbours, const PairContacts& left_source,
-                           ContactEvents* events);
+                           ContactEvents* events, std::vector<EndedContact>* ended = nullptr);
 
 /// Sets slot k to an idle pair's values: a new contact's history and books, no force, no torque.
 void reset_neighbour(NeighbourContacts& neighbours, std::size_t k);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "engine/member_retry.h"
 #include "engine/multilevel_stepper.h"
 #include "engine/scheduler.h"
 #include "engine/step_control.h"
@@ -15,6 +16,16 @@ namespace {
 /// level_min when even that is below level_min (both trials then run at level_min).
 int full_trial_level(Real step, const DoublingSettings& settings) {
   return level_of_step(step, settings.dt_base, settings.level_min - 1, settings.level_max - 1) + 1;
+}
+
+/// The island's contact adjacency for its pair and wall contacts.
+void index_contacts(IslandState& island) {
+  const std::size_t n = island.state.size();
+  build_pair_adjacency(n, island.pairs, island.adjacency);
+  std::vector<std::uint32_t>& start = island.adjacency.wall_start;
+  start.assign(n + 1, 0);
+  for (std::size_t k = 0; k < island.walls.size(); ++k) ++start[island.walls.particle[k] + 1];
+  for (std::size_t p = 0; p < n; ++p) start[p + 1] += start[p];
 }
 
 /// The island's state after an accepted trial, its contacts and books; `origin` holds the members'
@@ -31,14 +42,30 @@ void take_trial(const MultilevelGroup& trial, bool book_events, const std::vecto
   s.torque = t.torque;
   trial.pair_contacts(island.pairs);
   trial.wall_contacts(island.walls);
-  build_pair_adjacency(s.size(), island.pairs, island.adjacency);
-  std::vector<std::uint32_t>& start = island.adjacency.wall_start;
-  start.assign(s.size() + 1, 0);
-  for (std::size_t k = 0; k < island.walls.size(); ++k) ++start[island.walls.particle[k] + 1];
-  for (std::size_t p = 0; p < s.size(); ++p) start[p + 1] += start[p];
+  index_contacts(island);
   island.ended_dissipation += trial.ended_dissipation();
   island.wall_work += trial.wall_work();
   if (book_events) island.events.append(trial.events());
+}
+
+/// The same from the half trial merged with a retry; each member's force and torque are gathered
+/// from the merged contacts.
+void take_retry(const MemberRetry& retry, const IslandPhysics& physics, const std::vector<Vec3>& origin,
+                IslandState& island) {
+  State& s = island.state;
+  for (std::size_t q = 0; q < s.size(); ++q) {
+    island.excursion[q] = std::max(island.excursion[q], (s.position[q] - origin[q]).norm() + retry.half_excursion(q));
+    const TrialState end = retry.end(MemberRetry::half, q);
+    s.position[q] = end.position;
+    s.velocity[q] = end.velocity;
+    s.angular_velocity[q] = end.angular_velocity;
+  }
+  retry.half_contacts(island.pairs, island.walls);
+  index_contacts(island);
+  gather_forces(s, island.pairs, island.walls, island.adjacency, physics.kernels.uses_rotation, physics.dimension);
+  island.ended_dissipation += retry.half_ended_dissipation();
+  island.wall_work += retry.half_wall_work();
+  if (physics.book_events) retry.half_events(island.events);
 }
 
 /// Per member, the highest full-trial level whose accepted step keeps it stable on the springs it
@@ -168,15 +195,32 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
       return settings.reference_time > 0 ? settings.reference_time : std::ldexp(settings.dt_base, levels[q]);
     };
     const State& start = island.state;
+    MemberRetry& retry = scratch.retry;
+    retry.clear();
+    std::vector<std::uint8_t> live(n, 0);
     for (;;) {
       for (std::size_t q = 0; q < n; ++q) halves[q] = std::max(levels[q] - 1, level_min);
-      full.reset(start, candidates, walls, mp, t, levels, island.pairs, island.walls);
-      full.advance(ticks);
-      half.reset(start, candidates, walls, mp, t, halves, island.pairs, island.walls);
-      half.advance(ticks);
-      const std::uint64_t steps = full.particle_steps() + half.particle_steps();
+      std::uint64_t steps = 0;
+      if (retry.active() || std::find(live.begin(), live.end(), 1) != live.end()) {
+        retry.redo(start, island.pairs, island.walls, candidates, walls, mp, t, ticks, live, levels, halves, full,
+                   half);
+        steps = retry.particle_steps();
+        ++counters.member_retries;
+      } else {
+        full.reset(start, candidates, walls, mp, t, levels, island.pairs, island.walls);
+        full.advance(ticks);
+        half.reset(start, candidates, walls, mp, t, halves, island.pairs, island.walls);
+        half.advance(ticks);
+        steps = full.particle_steps() + half.particle_steps();
+      }
       counters.particle_steps += steps;
       counters.force_evaluations += steps;
+      // Each member's ends of the two trials, merged with a retry's.
+      const auto end_of = [&](MemberRetry::Trial trial, std::size_t q) -> TrialState {
+        if (retry.active()) return retry.end(trial, q);
+        const State& r = trial == MemberRetry::full ? full.state() : half.state();
+        return {r.position[q], r.velocity[q], r.angular_velocity[q]};
+      };
       bool accepted = true;
       for (std::size_t q = 0; q < n; ++q) {
         failed[q] = 0;
@@ -184,27 +228,36 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
           decision[q] = {true, false, levels[q]};
           continue;
         }
-        const State& a = full.state();
-        const State& b = half.state();
-        const TrialState one{a.position[q], a.velocity[q], a.angular_velocity[q]};
-        const TrialState two{b.position[q], b.velocity[q], b.angular_velocity[q]};
-        errors[q] = step_error(one, two, b.position[q] - start.position[q], chunk, reference_time(q), start.radius[q],
+        const TrialState one = end_of(MemberRetry::full, q);
+        const TrialState two = end_of(MemberRetry::half, q);
+        errors[q] = step_error(one, two, two.position - start.position[q], chunk, reference_time(q), start.radius[q],
                                settings.velocity_weight, settings.dx_min);
       }
       // A coarse member stands in for its finer partners as its prediction: where that missed its
       // booked path by more than a finer partner's error budget, the coarse member is at fault (its
-      // own displacement may be tiny: a heavy ball under light ones).
-      const std::vector<std::pair<ParticleIndex, ParticleIndex>> touching = full.touching_pairs();
-      const std::vector<Real>& miss = full.prediction_miss();
-      for (auto [coarse, fine] : touching) {
-        if (levels[coarse] < levels[fine]) std::swap(coarse, fine);
-        if (levels[coarse] == levels[fine] || start.inv_mass[coarse] == 0 || start.inv_mass[fine] == 0) continue;
+      // own displacement may be tiny: a heavy ball under light ones). After a retry, a border member
+      // stands in for its live partners as its first path, whatever their levels.
+      const std::vector<std::pair<ParticleIndex, ParticleIndex>> touching =
+          retry.active() ? retry.touching_pairs() : full.touching_pairs();
+      const auto miss_of = [&](std::size_t q) { return retry.active() ? retry.miss(q) : full.prediction_miss()[q]; };
+      const auto border_of_live = [&](std::size_t border, std::size_t other) {
+        return retry.active() && retry.in_group(border) && !retry.live(border) && retry.live(other);
+      };
+      const auto check_miss = [&](std::size_t coarse, std::size_t fine, int level) {
+        if (start.inv_mass[coarse] == 0 || start.inv_mass[fine] == 0) return;
         // The finer partner's budget over one step of the coarse member (the miss is its largest over one).
-        const Real coarse_step = std::ldexp(settings.dt_base, levels[coarse]);
-        const Real budget = (half.state().position[fine] - start.position[fine]).norm() * (coarse_step / chunk) +
+        const Real coarse_step = std::ldexp(settings.dt_base, level);
+        const Real budget = (end_of(MemberRetry::half, fine).position - start.position[fine]).norm() *
+                                (coarse_step / chunk) +
                             settings.dx_min * start.radius[fine] * coarse_step / reference_time(fine);
-        const Real error = miss[coarse] / budget;
+        const Real error = miss_of(coarse) / budget;
         if (!(error <= errors[coarse])) errors[coarse] = error;
+      };
+      for (const auto& [a, b] : touching) {
+        if (levels[a] > levels[b]) check_miss(a, b, levels[a]);
+        if (levels[b] > levels[a]) check_miss(b, a, levels[b]);
+        if (border_of_live(a, b)) check_miss(a, b, std::max(levels[a], levels[b]));
+        if (border_of_live(b, a)) check_miss(b, a, std::max(levels[a], levels[b]));
       }
       for (std::size_t q = 0; q < n; ++q) {
         if (start.inv_mass[q] == 0) continue;
@@ -224,7 +277,6 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
           if (decision[q].forced && levels[p] > levels[q] && start.inv_mass[p] != 0) failed[q] = 1;
       for (std::size_t q = 0; q < n; ++q) accepted = accepted && !failed[q];
       if (!accepted) {
-        counters.rejected += steps;
         // A failed member drops its levels, and its touching partners above its new level drop as many
         // (at least one, not below its new level): a squeezed particle's error is partly its partners',
         // and halving it alone would not shrink that part.
@@ -237,17 +289,38 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
             const int drop = std::max(1, levels[q] - decision[q].level);
             next[p] = std::min(next[p], std::max(decision[q].level, levels[p] - drop));
           }
+        // The next try redoes the failed members, every touching partner of one and whatever an
+        // earlier try of this chunk redid; the whole island when that is most of it.
+        for (std::size_t q = 0; q < n; ++q)
+          if (failed[q]) live[q] = 1;
+        for (const auto& [i, j] : touching)
+          if (failed[i] || failed[j]) live[i] = live[j] = 1;
+        for (std::size_t q = 0; q < n; ++q)
+          if (next[q] != levels[q]) live[q] = 1;
+        const bool whole = 2 * static_cast<std::size_t>(std::count(live.begin(), live.end(), 1)) > n;
+        // Rejected: the steps of this try's members that the next one redoes.
+        for (std::size_t q = 0; q < n; ++q)
+          if (whole || live[q])
+            counters.rejected += static_cast<std::uint64_t>(ticks / ticks_of_level(levels[q], level_min) +
+                                                            ticks / ticks_of_level(halves[q], level_min));
+        if (whole) {
+          std::fill(live.begin(), live.end(), 0);
+          retry.clear();
+        }
         levels = next;
         continue;
       }
-      counters.accepted += half.particle_steps();
       for (std::size_t q = 0; q < n; ++q) {
         const std::uint64_t own = static_cast<std::uint64_t>(ticks / ticks_of_level(halves[q], level_min));
+        counters.accepted += own;
         counters.histogram[halves[q] - level_min] += own;
         if (decision[q].forced) counters.forced += own;
         levels[q] = decision[q].level;
       }
-      take_trial(half, physics.book_events, origin, island);
+      if (retry.active())
+        take_retry(retry, physics, origin, island);
+      else
+        take_trial(half, physics.book_events, origin, island);
       break;
     }
     tick += ticks;

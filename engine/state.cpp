@@ -65,4 +65,26 @@ void State::permute(const std::vector<std::uint32_t>& order) {
 
 bool State::slots_follow_ids() const { return std::is_sorted(id.begin(), id.end()); }
 
+void select_particles(const State& s, const std::vector<ParticleIndex>& members, State& out) {
+  const std::size_t m = members.size();
+  out.id.resize(m), out.position.resize(m), out.velocity.resize(m), out.angular_velocity.resize(m);
+  out.force.resize(m), out.torque.resize(m), out.radius.resize(m), out.inv_mass.resize(m), out.inv_inertia.resize(m);
+  out.material.resize(m), out.level.resize(m);
+  out.index_of_id.clear();
+  for (std::size_t q = 0; q < m; ++q) {
+    const ParticleIndex p = members[q];
+    out.id[q] = s.id[p];
+    out.position[q] = s.position[p];
+    out.velocity[q] = s.velocity[p];
+    out.angular_velocity[q] = s.angular_velocity[p];
+    out.force[q] = s.force[p];
+    out.torque[q] = s.torque[p];
+    out.radius[q] = s.radius[p];
+    out.inv_mass[q] = s.inv_mass[p];
+    out.inv_inertia[q] = s.inv_inertia[p];
+    out.material[q] = s.material[p];
+    out.level[q] = s.level[p];
+  }
+}
+
 }  // namespace dem

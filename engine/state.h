@@ -53,6 +53,10 @@ struct State {
   bool slots_follow_ids() const;
 };
 
+/// The particles `members` of `s` (slots), in that order, as a state of their own in `out` (which
+/// keeps its storage); its index_of_id is left empty.
+void select_particles(const State& s, const std::vector<ParticleIndex>& members, State& out);
+
 /// Mass treated as infinite in momentum and energy audits (docs/physics.md 1.3: a 1e20 kg "wall" swamps
 /// round-off of the real particles).
 inline constexpr Real audit_mass_limit = 1e15;  // [kg]

@@ -73,6 +73,7 @@ struct RunCounters {
   // Step doubling only:
   std::uint64_t richardson_steps = 0;     // island steps that took the improved value
   std::uint64_t round_redos = 0;          // island rounds redone: a contact between islands or a skin overrun
+  std::uint64_t member_retries = 0;       // levels per particle: tries that redid only part of an island
   std::vector<std::uint64_t> level_histogram;  // accepted particle-steps per level - level_min
 };
 

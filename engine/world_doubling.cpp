@@ -444,6 +444,7 @@ void World::finish_round() {
     counters_.particle_steps += local.particle_steps;
     counters_.force_evaluations += local.force_evaluations;
     counters_.richardson_steps += local.richardson;
+    counters_.member_retries += local.member_retries;
     auto& histogram = counters_.level_histogram;
     if (histogram.size() < local.histogram.size()) histogram.resize(local.histogram.size(), 0);
     for (std::size_t k = 0; k < local.histogram.size(); ++k) histogram[k] += local.histogram[k];

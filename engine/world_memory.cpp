@@ -34,7 +34,8 @@ std::size_t doubling_bytes(DoublingWork& d) {
   for (const IslandJob& job : d.jobs) total += island_bytes(job.island) + heap_bytes(job.candidates);
   d.scratch.for_each([&](const IslandScratch& s) {
     total += heap_bytes(s.contacts) + exact_bytes(s.exact) + island_bytes(s.full) + island_bytes(s.half) +
-             heap_bytes(s.origin) + s.levels_full.memory_bytes() + s.levels_half.memory_bytes();
+             heap_bytes(s.origin) + s.levels_full.memory_bytes() + s.levels_half.memory_bytes() +
+             s.retry.memory_bytes();
   });
   return total;
 }

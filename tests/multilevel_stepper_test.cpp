@@ -7,6 +7,10 @@
 //     at second order to the all-fine reference as every step halves.
 //  4. Angular momentum about a fixed point across levels: its error shrinks as the steps halve.
 //  5. A group reset after stepping another one steps bit for bit as a group made fresh.
+//  6. Particles that replay the paths another group recorded for them leave their integrated partners'
+//     steps, contacts and impulses bit for bit as that group made them.
+//  7. Each contact's impulse, first moment and angular impulse over an advance add up, per particle,
+//     to its change of momentum, of position beyond its start velocity, and of spin.
 // Expected values come from conservation laws, from runs of the same physics at one level (the
 // World's fixed step, or this stepper at a converged step) and from a fresh group; none is copied from
 // this stepper's output.
@@ -306,6 +310,126 @@ TEST(MultilevelStepper, AngularMomentumAcrossLevelsConvergesAsTheStepsHalve) {
   EXPECT_LT(drift[1], 0.35 * drift[0]);  // second order: a quarter per halving
   EXPECT_LT(drift[2], 0.35 * drift[1]);
   EXPECT_LT(drift[0], 1e-2);
+}
+
+/// The falling box of 27 spheres at levels -2, -1 and 0 by turns, after 0.4 s of falling and settling
+/// in a group of its own: `group` holds it there, `pairs` and `wall_contacts` its contacts then.
+struct SettledBox {
+  World world{falling_box_scene(3, 3, 3, 7)};
+  Walls walls = world.walls();
+  std::vector<int> levels;
+  MultilevelGroup group;
+  State start;
+  PairContacts pairs;
+  WallContacts wall_contacts;
+  Real time = 0;
+  SettledBox() {
+    for (std::size_t q = 0; q < world.state().size(); ++q) levels.push_back(static_cast<int>(q % 3) - 2);
+    group = group_of(world, walls, 1e-4, -2, levels);
+    for (int r = 0; r < 4000; ++r) group.advance(4);
+    start = group.state();
+    pairs = group.pair_contacts();
+    wall_contacts = group.wall_contacts();
+    time = group.time();
+  }
+};
+
+TEST(MultilevelStepper, PartnersReplayingTheirPathsLeaveTheIntegratedParticlesStepsBitForBit) {
+  SettledBox box;
+  const std::size_t n = box.start.size();
+  const std::int64_t ticks = 16;
+  box.group.advance(ticks);
+  const MultilevelGroup& first = box.group;
+  // Every other particle replays its path; their contacts with each other are left out.
+  const auto replays = [](std::size_t q) { return q % 2 == 1; };
+  std::vector<ReplayedPath> replayed(n);
+  for (std::size_t q = 0; q < n; ++q) {
+    if (!replays(q)) continue;
+    replayed[q].steps = first.step_records().data() + first.record_start(q);
+    replayed[q].end_position = first.state().position[q];
+    replayed[q].end_velocity = first.state().velocity[q];
+    replayed[q].end_spin = first.state().angular_velocity[q];
+  }
+  broadphase::CandidatePairs candidates;
+  for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t b = a + 1; b < n; ++b)
+      if (!replays(a) || !replays(b)) candidates.partner.push_back(static_cast<std::uint32_t>(b));
+    candidates.row_start.push_back(static_cast<std::uint32_t>(candidates.partner.size()));
+  }
+  PairContacts pairs;
+  pairs.parts = box.pairs.parts;
+  for (std::size_t k = 0; k < box.pairs.size(); ++k) {
+    if (replays(box.pairs.i[k]) && replays(box.pairs.j[k])) continue;
+    pairs.resize(pairs.size() + 1);
+    copy_pair(box.pairs, k, pairs, pairs.size() - 1);
+  }
+  pairs.index_rows(n);
+  WallContacts wall_contacts;
+  for (std::size_t k = 0; k < box.wall_contacts.size(); ++k) {
+    if (replays(box.wall_contacts.particle[k])) continue;
+    wall_contacts.resize(wall_contacts.size() + 1);
+    copy_wall(box.wall_contacts, k, wall_contacts, wall_contacts.size() - 1);
+  }
+  Walls walls = box.world.walls();
+  MultilevelGroup again;
+  again.reset(box.start, candidates, walls, physics_of(box.world, 1e-4, -2), box.time, box.levels, pairs,
+              wall_contacts, &replayed);
+  again.advance(ticks);
+
+  std::uint64_t integrated_steps = 0;
+  for (std::size_t q = 0; q < n; ++q) {
+    EXPECT_EQ(again.state().position[q], first.state().position[q]) << q;
+    EXPECT_EQ(again.state().velocity[q], first.state().velocity[q]) << q;
+    EXPECT_EQ(again.state().angular_velocity[q], first.state().angular_velocity[q]) << q;
+    if (!replays(q)) integrated_steps += static_cast<std::uint64_t>(ticks >> (box.levels[q] + 2));
+  }
+  EXPECT_EQ(again.particle_steps(), integrated_steps);
+  // The contacts between an integrated particle and a replayed one gave the same impulses.
+  std::size_t across = 0;
+  for (const ContactImpulse& c : again.contact_impulses()) {
+    const auto same = std::find_if(first.contact_impulses().begin(), first.contact_impulses().end(),
+                                   [&](const ContactImpulse& f) { return f.i == c.i && f.j == c.j; });
+    ASSERT_NE(same, first.contact_impulses().end());
+    EXPECT_EQ(c.impulse, same->impulse);
+    EXPECT_EQ(c.moment, same->moment);
+    EXPECT_EQ(c.angular_i, same->angular_i);
+    EXPECT_EQ(c.angular_j, same->angular_j);
+    across += replays(c.i) != replays(c.j);
+  }
+  std::printf("replayed partners: %zu contacts across integrated and replayed particles\n", across);
+  EXPECT_GT(across, 5u);  // the replayed paths were felt
+}
+
+TEST(MultilevelStepper, ContactImpulsesAddUpToEachParticlesChangeOfMotion) {
+  World world(three_in_a_row());
+  Walls walls = world.walls();
+  MultilevelGroup group = group_of(world, walls, 1e-5, -2, {-2, -1, 0});
+  const State before = group.state();  // pressed together: both contacts act from the start
+  const std::int64_t ticks = 64;
+  const Real duration = static_cast<Real>(ticks) * std::ldexp(1e-5, -2);
+  group.advance(ticks);
+  const State& after = group.state();
+  std::vector<Vec3> impulse(3, Vec3::Zero()), moment(3, Vec3::Zero()), angular(3, Vec3::Zero());
+  for (const ContactImpulse& c : group.contact_impulses()) {
+    impulse[c.i] += c.impulse, impulse[c.j] -= c.impulse;
+    moment[c.i] += c.moment, moment[c.j] -= c.moment;
+    angular[c.i] += c.angular_i, angular[c.j] += c.angular_j;
+  }
+  ASSERT_EQ(group.contact_impulses().size(), 2u);
+  for (std::size_t q = 0; q < 3; ++q) {
+    const Real m = 1 / before.inv_mass[q], inertia = 1 / before.inv_inertia[q];
+    const Vec3 dp = m * (after.velocity[q] - before.velocity[q]);
+    const Vec3 dx = m * (after.position[q] - before.position[q] - duration * before.velocity[q]);
+    const Vec3 dl = inertia * (after.angular_velocity[q] - before.angular_velocity[q]);
+    std::printf("particle %zu: |J| %.3e, |J - m dv| %.3e; |K| %.3e, |K - m dx| %.3e; |L| %.3e, |L - I dw| %.3e\n", q,
+                impulse[q].norm(), (impulse[q] - dp).norm(), moment[q].norm(), (moment[q] - dx).norm(),
+                angular[q].norm(), (angular[q] - dl).norm());
+    // A weight or moment arm off by one substep would miss by about |J| h / T, 1/64 here.
+    EXPECT_GT(impulse[q].norm(), 0);
+    EXPECT_LT((impulse[q] - dp).norm(), 1e-9 * impulse[q].norm());
+    EXPECT_LT((moment[q] - dx).norm(), 1e-9 * moment[q].norm());
+    EXPECT_LT((angular[q] - dl).norm(), 1e-9 * angular[q].norm());
+  }
 }
 
 }  // namespace

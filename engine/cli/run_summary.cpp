@@ -43,6 +43,7 @@ JsonObject counters_json(const Scene& scene, const RunCounters& c) {
       .add("force_evaluations", c.force_evaluations)
       .add("pair_rebuilds", c.pair_rebuilds)
       .add("round_redos", c.round_redos)
+      .add("member_retries", c.member_retries)
       .add("unresolved_contacts", c.unresolved_contacts)
       .add("richardson_steps", c.richardson_steps);
   // Accepted particle-steps per level ("level": count), levels that were used only.
