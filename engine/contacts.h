@@ -200,8 +200,6 @@ struct ContactWorkspace {
   std::vector<WallTouch> wall_touch;
 };
 
-/// Called by update_pair_contacts while the old list's keys and carried fields are still whole
-/// (its i and j already hold the new list's), with the new list's keys.
 /// One contact that ended, for books kept per contact: its key (pair_key, or wall_key when `wall`)
 /// and what it dissipated, its work less what its springs held [J].
 struct EndedContact {
@@ -210,6 +208,8 @@ struct EndedContact {
   Real dissipated = 0;
 };
 
+/// Called by update_pair_contacts while the old list's keys and carried fields are still whole
+/// (its i and j already hold the new list's), with the new list's keys.
 using EndedPairsHook = std::function<void(const PairContacts& before, const std::vector<std::uint64_t>& after_key)>;
 
 /// Replaces `contacts` by the overlapping candidate pairs, inheriting history by key, in place: only

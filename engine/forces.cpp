@@ -447,12 +447,14 @@ void gather_neighbour_forces(State& s, const NeighbourContacts& nb, const WallCo
     gather_neighbours_in<true, false>(s, nb, walls, wall_start, dimension);
 }
 
+void add_wall_contact_power(const Walls& walls, const WallContacts& c, std::size_t k, Real& power) {
+  power += c.force[k].dot(walls.velocity_at(c.wall[k], c.point[k]));
+  power += c.rolling_torque[k].dot(walls.angular_velocity(c.wall[k]));
+}
+
 Real wall_power(const Walls& walls, const WallContacts& c) {
   Real power = 0;
-  for (std::size_t k = 0; k < c.size(); ++k) {
-    power += c.force[k].dot(walls.velocity_at(c.wall[k], c.point[k]));
-    power += c.rolling_torque[k].dot(walls.angular_velocity(c.wall[k]));
-  }
+  for (std::size_t k = 0; k < c.size(); ++k) add_wall_contact_power(walls, c, k, power);
   return power;
 }
 

@@ -55,6 +55,8 @@ void gather_neighbour_forces(State& state, const NeighbourContacts& neighbours, 
 
 /// Power of the moving walls on the particles through these contacts [W] (serial, in contact order).
 Real wall_power(const Walls& walls, const WallContacts& contacts);
+/// Adds to `power` that of the moving walls through contact k [W], as wall_power sums it.
+void add_wall_contact_power(const Walls& walls, const WallContacts& contacts, std::size_t k, Real& power);
 /// Resultant force and torque of the particles on each wall (serial, in contact order).
 void accumulate_wall_loads(const Walls& walls, const WallContacts& contacts, std::vector<WallLoad>& loads);
 

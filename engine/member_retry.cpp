@@ -67,31 +67,31 @@ void MemberRetry::redo(const State& start, const PairContacts& pairs, const Wall
     copy_wall(wall_contacts, k, sub_walls_, at);
     sub_walls_.particle[at] = sub_of_[wall_contacts.particle[k]];
   }
-  run(trial_[full], levels, first_full, walls, physics, time, ticks);
-  run(trial_[half], halves, first_half, walls, physics, time, ticks);
+  run(trial_[0], levels, first_full, walls, physics, time, ticks);
+  run(trial_[1], halves, first_half, walls, physics, time, ticks);
 }
 
-void MemberRetry::run(Redo& redo, const std::vector<int>& levels, const MultilevelGroup& first, Walls& walls,
+void MemberRetry::run(TrialRetry& trial, const std::vector<int>& levels, const MultilevelGroup& first, Walls& walls,
                       const MultilevelPhysics& physics, Real time, std::int64_t ticks) {
   const std::size_t m = group_.size();
-  redo.first = &first;
+  trial.first = &first;
   sub_levels_.resize(m);
-  redo.replayed.assign(m, ReplayedPath{});
+  trial.replayed.assign(m, ReplayedPath{});
   const State& ends = first.state();
   for (std::size_t s = 0; s < m; ++s) {
     const std::size_t q = group_[s];
     sub_levels_[s] = levels[q];
     if (live_[q]) continue;
     DEM_ASSERT(first.level(q) == levels[q]);  // a border member keeps its first-try steps
-    ReplayedPath& path = redo.replayed[s];
+    ReplayedPath& path = trial.replayed[s];
     path.steps = first.step_records().data() + first.record_start(q);
     path.end_position = ends.position[q];
     path.end_velocity = ends.velocity[q];
     path.end_spin = ends.angular_velocity[q];
   }
-  redo.group.reset(sub_state_, sub_candidates_, walls, physics, time, sub_levels_, sub_pairs_, sub_walls_,
-                   &redo.replayed);
-  redo.group.advance(ticks);
+  trial.group.reset(sub_state_, sub_candidates_, walls, physics, time, sub_levels_, sub_pairs_, sub_walls_,
+                    &trial.replayed, false);
+  trial.group.advance(ticks);
 
   // Each border member gets what its live partners gave it now, less what they gave it in the first
   // try: the new contacts all have a live side, and the first try's are picked by theirs.
@@ -104,63 +104,63 @@ void MemberRetry::run(Redo& redo, const std::vector<int>& levels, const Multilev
       impulse[s_j] -= sign * c.impulse, moment[s_j] -= sign * c.moment, angular[s_j] += sign * c.angular_j;
     }
   };
-  for (const ContactImpulse& c : redo.group.contact_impulses()) book(c.i, c.j, c, 1);
+  for (const ContactImpulse& c : trial.group.contact_impulses()) book(c.i, c.j, c, 1);
   for (const ContactImpulse& c : first.contact_impulses())
     if (live_[c.i] != live_[c.j]) book(sub_of_[c.i], sub_of_[c.j], c, -1);
-  redo.shift.assign(m, Vec3::Zero());
-  redo.kick.assign(m, Vec3::Zero());
-  redo.spin_kick.assign(m, Vec3::Zero());
+  trial.shift.assign(m, Vec3::Zero());
+  trial.kick.assign(m, Vec3::Zero());
+  trial.spin_kick.assign(m, Vec3::Zero());
   for (std::size_t s = 0; s < m; ++s) {
     if (live_[group_[s]] || sub_state_.inv_mass[s] == 0) continue;
     const Real inv_m = sub_state_.inv_mass[s];
-    redo.shift[s] = inv_m * moment[s];
-    redo.kick[s] = inv_m * impulse[s];
-    redo.spin_kick[s] = sub_state_.inv_inertia[s] * angular[s];
+    trial.shift[s] = inv_m * moment[s];
+    trial.kick[s] = inv_m * impulse[s];
+    trial.spin_kick[s] = sub_state_.inv_inertia[s] * angular[s];
     if (physics.dimension == 2) {
-      redo.shift[s].z() = 0, redo.kick[s].z() = 0;
-      redo.spin_kick[s].x() = 0, redo.spin_kick[s].y() = 0;
+      trial.shift[s].z() = 0, trial.kick[s].z() = 0;
+      trial.spin_kick[s].x() = 0, trial.spin_kick[s].y() = 0;
     }
-    if (!physics.kernels.uses_rotation) redo.spin_kick[s].setZero();
+    if (!physics.kernels.uses_rotation) trial.spin_kick[s].setZero();
   }
 }
 
 TrialState MemberRetry::end(Trial trial, std::size_t q) const {
-  const Redo& redo = trial_[trial];
+  const TrialRetry& retried = of(trial);
   const std::uint32_t s = active_ ? sub_of_[q] : outside;
   if (s != outside && live_[q]) {
-    const State& r = redo.group.state();
+    const State& r = retried.group.state();
     return {r.position[s], r.velocity[s], r.angular_velocity[s]};
   }
-  const State& f = redo.first->state();
+  const State& f = retried.first->state();
   TrialState out{f.position[q], f.velocity[q], f.angular_velocity[q]};
   if (s != outside) {
-    out.position += redo.shift[s];
-    out.velocity += redo.kick[s];
-    out.angular_velocity += redo.spin_kick[s];
+    out.position += retried.shift[s];
+    out.velocity += retried.kick[s];
+    out.angular_velocity += retried.spin_kick[s];
   }
   return out;
 }
 
 Real MemberRetry::miss(std::size_t q) const {
-  const Redo& redo = trial_[full];
+  const TrialRetry& retried = of(Trial::full);
   const std::uint32_t s = sub_of_[q];
-  if (s != outside && live_[q]) return redo.group.prediction_miss()[s];
-  const Real first = redo.first->prediction_miss()[q];
-  return s == outside ? first : first + redo.shift[s].norm();
+  if (s != outside && live_[q]) return retried.group.prediction_miss()[s];
+  const Real first = retried.first->prediction_miss()[q];
+  return s == outside ? first : first + retried.shift[s].norm();
 }
 
 std::vector<std::pair<ParticleIndex, ParticleIndex>> MemberRetry::touching_pairs() const {
   std::vector<std::pair<ParticleIndex, ParticleIndex>> out;
-  for (const auto& [a, b] : trial_[full].first->touching_pairs())
+  for (const auto& [a, b] : of(Trial::full).first->touching_pairs())
     if (!live_[a] && !live_[b]) out.emplace_back(a, b);
-  for (const auto& [a, b] : trial_[full].group.touching_pairs()) out.emplace_back(group_[a], group_[b]);
+  for (const auto& [a, b] : of(Trial::full).group.touching_pairs()) out.emplace_back(group_[a], group_[b]);
   return out;
 }
 
 void MemberRetry::half_contacts(PairContacts& pairs, WallContacts& wall_contacts) const {
-  const Redo& redo = trial_[half];
-  const PairContacts first = redo.first->pair_contacts();
-  const PairContacts again = redo.group.pair_contacts();
+  const TrialRetry& retried = of(Trial::half);
+  const PairContacts first = retried.first->pair_contacts();
+  const PairContacts again = retried.group.pair_contacts();
   // The first try's contacts without a live side and the retry's, merged in key order.
   std::vector<std::pair<std::uint64_t, std::pair<bool, std::uint32_t>>> order;
   for (std::uint32_t k = 0; k < first.size(); ++k)
@@ -176,8 +176,8 @@ void MemberRetry::half_contacts(PairContacts& pairs, WallContacts& wall_contacts
   }
   pairs.index_rows(live_.size());
 
-  const WallContacts first_walls = redo.first->wall_contacts();
-  const WallContacts again_walls = redo.group.wall_contacts();
+  const WallContacts first_walls = retried.first->wall_contacts();
+  const WallContacts again_walls = retried.group.wall_contacts();
   std::vector<std::pair<std::uint64_t, std::pair<bool, std::uint32_t>>> wall_order;
   for (std::uint32_t k = 0; k < first_walls.size(); ++k)
     if (!live_[first_walls.particle[k]]) wall_order.push_back({first_walls.key[k], {false, k}});
@@ -204,42 +204,42 @@ bool MemberRetry::key_is_live(std::uint64_t key, bool wall) const {
 }
 
 Real MemberRetry::half_ended_dissipation() const {
-  const Redo& redo = trial_[half];
+  const TrialRetry& retried = of(Trial::half);
   Real replaced = 0;
-  for (const EndedContact& e : redo.first->ended_contacts())
+  for (const EndedContact& e : retried.first->ended_contacts())
     if (key_is_live(e.key, e.wall)) replaced += e.dissipated;
-  return redo.first->ended_dissipation() - replaced + redo.group.ended_dissipation();
+  return retried.first->ended_dissipation() - replaced + retried.group.ended_dissipation();
 }
 
 Real MemberRetry::half_wall_work() const {
-  const Redo& redo = trial_[half];
+  const TrialRetry& retried = of(Trial::half);
   Real replaced = 0;
-  const std::vector<Real>& work = redo.first->particle_wall_work();
+  const std::vector<Real>& work = retried.first->particle_wall_work();
   for (std::size_t q = 0; q < live_.size(); ++q)
     if (live_[q]) replaced += work[q];
-  return redo.first->wall_work() - replaced + redo.group.wall_work();
+  return retried.first->wall_work() - replaced + retried.group.wall_work();
 }
 
 void MemberRetry::half_events(ContactEvents& out) const {
-  const Redo& redo = trial_[half];
-  for (const ContactEvents::Event& e : redo.first->events().events())
+  const TrialRetry& retried = of(Trial::half);
+  for (const ContactEvents::Event& e : retried.first->events().events())
     if (!key_is_live(e.key, e.wall)) out.add(e);
-  out.append(redo.group.events());
+  out.append(retried.group.events());
 }
 
 Real MemberRetry::half_excursion(std::size_t q) const {
-  const Redo& redo = trial_[half];
+  const TrialRetry& retried = of(Trial::half);
   const std::uint32_t s = sub_of_[q];
-  if (s != outside && live_[q]) return redo.group.excursion()[s];
-  const Real first = redo.first->excursion()[q];
-  return s == outside ? first : first + redo.shift[s].norm();
+  if (s != outside && live_[q]) return retried.group.excursion()[s];
+  const Real first = retried.first->excursion()[q];
+  return s == outside ? first : first + retried.shift[s].norm();
 }
 
 std::size_t MemberRetry::memory_bytes() const {
   std::size_t total = heap_bytes(live_) + heap_bytes(group_) + heap_bytes(sub_of_) + heap_bytes(sub_state_) +
                       heap_bytes(sub_candidates_) + heap_bytes(sub_pairs_) + heap_bytes(sub_walls_) +
                       heap_bytes(sub_levels_);
-  for (const Redo& r : trial_)
+  for (const TrialRetry& r : trial_)
     total += r.group.memory_bytes() + heap_bytes(r.replayed) + heap_bytes(r.shift) + heap_bytes(r.kick) +
              heap_bytes(r.spin_kick);
   return total;

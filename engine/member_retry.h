@@ -1,7 +1,8 @@
 #pragma once
 // The retry of a rejected chunk with a level per particle (docs/physics.md 6.11): instead of the whole
-// island, only the `live` members (those that failed, their touching partners, and what earlier
-// retries of the chunk redid) are integrated again, at their new levels, in both trials. Their other
+// island, only the `live` members (those that failed, their touching partners, those whose level
+// changed, and what earlier retries of the chunk redid) are integrated again, at their new levels,
+// in both trials. Their other
 // candidate partners, the border, replay the paths the first try gave them (MultilevelGroup's
 // ReplayedPath), so the live members meet them where they were; each border particle then receives at
 // the chunk's end what its live partners now gave it less what they gave it in the first try (impulse,
@@ -24,7 +25,7 @@ namespace dem {
 
 class MemberRetry {
  public:
-  enum Trial { full = 0, half = 1 };
+  enum class Trial { full = 0, half = 1 };
 
   /// Forgets the last retry: every member reads the first try.
   void clear() { active_ = false; }
@@ -33,14 +34,13 @@ class MemberRetry {
   /// Redoes the chunk of `ticks` finest steps from `start` (the island's state, contacts `pairs` and
   /// `wall_contacts` at time `time`, slots in id order) for the members with live[q] != 0, at `levels`
   /// (full trial) and `halves` (half trial), against the first try `first_full` and `first_half`, whose
-  /// levels the other members keep.
+  /// levels the other members keep. `start` must stay unchanged (its ids at least) while this
+  /// retry is read.
   void redo(const State& start, const PairContacts& pairs, const WallContacts& wall_contacts,
             const broadphase::CandidatePairs& candidates, Walls& walls, const MultilevelPhysics& physics, Real time,
             std::int64_t ticks, const std::vector<std::uint8_t>& live, const std::vector<int>& levels,
             const std::vector<int>& halves, const MultilevelGroup& first_full, const MultilevelGroup& first_half);
 
-  /// The members the last retry integrated or replayed (island slots, ascending).
-  const std::vector<ParticleIndex>& group() const { return group_; }
   bool live(std::size_t q) const { return live_[q] != 0; }
   bool in_group(std::size_t q) const { return sub_of_[q] != outside; }
 
@@ -52,10 +52,12 @@ class MemberRetry {
   /// The touching pairs (island slots) of the merged full trial.
   std::vector<std::pair<ParticleIndex, ParticleIndex>> touching_pairs() const;
   /// Particle-steps the last retry integrated (both trials).
-  std::uint64_t particle_steps() const { return trial_[full].group.particle_steps() + trial_[half].group.particle_steps(); }
+  std::uint64_t particle_steps() const {
+    return trial_[0].group.particle_steps() + trial_[1].group.particle_steps();
+  }
 
   /// The merged half trial: its contacts (island slots, key order), the energy its ended contacts
-  /// dissipated, the moving walls' work, its ended-contact events (with `events` true) and each
+  /// dissipated, the moving walls' work, its ended-contact events (appended to `out`) and each
   /// member's excursion (MultilevelGroup::excursion).
   void half_contacts(PairContacts& pairs, WallContacts& wall_contacts) const;
   Real half_ended_dissipation() const;
@@ -68,13 +70,13 @@ class MemberRetry {
  private:
   static constexpr std::uint32_t outside = 0xffffffffu;
   /// One trial's retry: its group and the corrections of its border members (by group slot).
-  struct Redo {
+  struct TrialRetry {
     MultilevelGroup group;
     std::vector<ReplayedPath> replayed;
     std::vector<Vec3> shift, kick, spin_kick;  // position, velocity and spin corrections
     const MultilevelGroup* first = nullptr;
   };
-  void run(Redo& redo, const std::vector<int>& levels, const MultilevelGroup& first, Walls& walls,
+  void run(TrialRetry& trial, const std::vector<int>& levels, const MultilevelGroup& first, Walls& walls,
            const MultilevelPhysics& physics, Real time, std::int64_t ticks);
   /// Whether an ended-contact key (pair or wall) names a live member.
   bool key_is_live(std::uint64_t key, bool wall) const;
@@ -90,7 +92,8 @@ class MemberRetry {
   PairContacts sub_pairs_;
   WallContacts sub_walls_;
   std::vector<int> sub_levels_;
-  Redo trial_[2];
+  TrialRetry trial_[2];  // by Trial
+  const TrialRetry& of(Trial trial) const { return trial_[static_cast<int>(trial)]; }
 };
 
 }  // namespace dem

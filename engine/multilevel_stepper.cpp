@@ -18,9 +18,10 @@ void resize_keeping(std::vector<T>& v, std::size_t count) {
 }
 
 void flatten_to_plane(Vec3& v) { v.z() = 0; }
+void spin_about_normal(Vec3& w) { w.x() = 0, w.y() = 0; }
 
 constexpr std::uint32_t no_impulse = 0xffffffffu;  // a slot that has not touched in this advance
-void spin_about_normal(Vec3& w) { w.x() = 0, w.y() = 0; }
+constexpr std::uint64_t max_records_per_particle = 32;  // steps kept for a retry, on average
 
 }  // namespace
 
@@ -33,8 +34,9 @@ MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candida
 void MultilevelGroup::reset(const State& state, const broadphase::CandidatePairs& candidates, Walls& walls,
                             const MultilevelPhysics& physics, Real time, const std::vector<int>& levels,
                             const PairContacts& pairs, const WallContacts& wall_contacts,
-                            const std::vector<ReplayedPath>* replay) {
+                            const std::vector<ReplayedPath>* replay, bool record) {
   physics_ = physics;
+  recording_ = record;
   tick_ = std::ldexp(physics_.dt_base, physics_.level_min);
   state_ = state;
   candidates_ = candidates;
@@ -236,7 +238,8 @@ void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
   if (nb.size() > 0 || !nb.left_start.empty()) {
     physics_.kernels.neighbour_forces(view_, *physics_.materials, nb, h, dashpot);
     ended_dissipation_ +=
-        finish_ended_contacts(view_, nb, rebuilt_from_[c], physics_.book_events ? &events_ : nullptr, &ended_log_);
+        finish_ended_contacts(view_, nb, rebuilt_from_[c], physics_.book_events ? &events_ : nullptr,
+                              recording_ ? &ended_log_ : nullptr);
   }
   const std::vector<ParticleIndex>& members = wall_members_[c];
   if (members.empty() || walls_->count() == 0) return;
@@ -254,18 +257,21 @@ void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
     lists = &level_lists;
   }
   ended_dissipation_ += update_wall_contacts(sub, *walls_, *physics_.materials, wall_contacts_[c], workspace_,
-                                             wall_start_[c], lists, &ended_log_);
+                                             wall_start_[c], lists, recording_ ? &ended_log_ : nullptr);
   if (physics_.book_events) events_.record_ended(workspace_.walls, wall_contacts_[c]);
   physics_.kernels.wall_forces(sub, *physics_.materials, *walls_, wall_contacts_[c], workspace_.wall_touch, h, dashpot);
   // Work of moving walls, with the forces at the end of the step (a rectangle rule, as the fixed step's),
   // and each particle's share of it.
   if (physics_.walls_move) {
     const WallContacts& w = wall_contacts_[c];
-    wall_work_ += h * wall_power(*walls_, w);
-    for (std::size_t k = 0; k < w.size(); ++k)
-      particle_wall_work_[members[w.particle[k]]] +=
-          h * (w.force[k].dot(walls_->velocity_at(w.wall[k], w.point[k])) +
-               w.rolling_torque[k].dot(walls_->angular_velocity(w.wall[k])));
+    Real power = 0;
+    for (std::size_t k = 0; k < w.size(); ++k) {
+      Real contact_power = 0;
+      add_wall_contact_power(*walls_, w, k, contact_power);
+      power += contact_power;
+      if (recording_) particle_wall_work_[members[w.particle[k]]] += h * contact_power;
+    }
+    wall_work_ += h * power;
   }
 }
 
@@ -347,8 +353,10 @@ void MultilevelGroup::begin_step(ParticleIndex p, std::int64_t t) {
     s.a0 = inv_m == 0 ? Vec3(Vec3::Zero()) : Vec3(inv_m * l.force + physics_.gravity);
     s.alpha0 = state_.inv_inertia[p] * l.torque;
     if (physics_.dimension == 2) flatten_to_plane(s.a0);
-    StepRecord& r = record(p, t, s.ticks);
-    r.x0 = s.x0, r.v0 = s.v0, r.w0 = s.w0, r.a0 = s.a0, r.alpha0 = s.alpha0;
+    if (steps_recorded_) {
+      StepRecord& r = record(p, t, s.ticks);
+      r.x0 = s.x0, r.v0 = s.v0, r.w0 = s.w0, r.a0 = s.a0, r.alpha0 = s.alpha0;
+    }
   }
   s.impulse = l.weighted_force;
   s.moment = h * l.weighted_force;
@@ -418,9 +426,11 @@ void MultilevelGroup::set_view_motion(std::int64_t t, std::size_t c) {
     view_.velocity[p] = v;
     view_.angular_velocity[p] = s.w0 + (state_.inv_inertia[p] / h_c) * s.angular_moment;
     plane(p);
-    StepRecord& r = record(p, s.start, s.ticks);
-    r.mean_velocity = view_.velocity[p];
-    r.mean_spin = view_.angular_velocity[p];
+    if (steps_recorded_) {
+      StepRecord& r = record(p, s.start, s.ticks);
+      r.mean_velocity = view_.velocity[p];
+      r.mean_spin = view_.angular_velocity[p];
+    }
   }
   // The coarser sides: their prediction's mean over the substep [t - h_c, t].
   for (ParticleIndex p : participants_[c]) {
@@ -496,10 +506,22 @@ void MultilevelGroup::advance(std::int64_t ticks) {
   advance_ticks_ = ticks;
   const Real tick = tick_length();
   const Real duration = static_cast<Real>(ticks) * tick;
-  record_start_.assign(n + 1, 0);
-  for (std::size_t p = 0; p < n; ++p)
-    record_start_[p + 1] = record_start_[p] + static_cast<std::uint32_t>(ticks / ticks_of_index(level_index(level_[p])));
-  records_.resize(record_start_[n]);
+  // Steps are recorded while they average a few per particle: an advance of many fine steps under a
+  // long coarse one would hold them all, and a retry of it redoes the whole group instead.
+  steps_recorded_ = false;
+  if (recording_) {
+    std::uint64_t total = 0;
+    for (std::size_t p = 0; p < n; ++p)
+      total += static_cast<std::uint64_t>(ticks / ticks_of_index(level_index(level_[p])));
+    if (total <= max_records_per_particle * n) {
+      record_start_.assign(n + 1, 0);
+      for (std::size_t p = 0; p < n; ++p)
+        record_start_[p + 1] =
+            record_start_[p] + static_cast<std::uint32_t>(ticks / ticks_of_index(level_index(level_[p])));
+      records_.resize(total);
+      steps_recorded_ = true;
+    }
+  }
   impulses_.clear();
   impulse_of_.resize(neighbours_.size());
   for (std::size_t c = 0; c < neighbours_.size(); ++c) impulse_of_[c].assign(neighbours_[c].size(), no_impulse);

@@ -92,13 +92,16 @@ class MultilevelGroup {
 
   /// What the second constructor does, into this group's storage: the per-particle and per-contact
   /// vectors keep their capacity, so a scratch group reset chunk after chunk allocates little.
-  /// With `replay` (one per particle, kept by the caller while the group advances), a particle with
-  /// steps follows its path: its contacts with integrated partners are evaluated on it, it gets no
-  /// wall contacts, and its own loads move nothing. Its contacts with other replayed particles must
-  /// not be among the candidates.
+  /// With `replay` (one per particle; copied, but the records its paths point into must outlive the
+  /// group's next advance, the only one it replays), a particle with steps follows its path: its
+  /// contacts with integrated partners are evaluated on it, it gets no wall contacts, and its own
+  /// loads move nothing. Its contacts with other replayed particles must not be among the candidates.
+  /// With `record`, the advances keep what a retry of them reads: step_records, ended_contacts and
+  /// particle_wall_work (contact_impulses are kept either way).
   void reset(const State& state, const broadphase::CandidatePairs& candidates, Walls& walls,
              const MultilevelPhysics& physics, Real time, const std::vector<int>& levels, const PairContacts& pairs,
-             const WallContacts& wall_contacts, const std::vector<ReplayedPath>* replay = nullptr);
+             const WallContacts& wall_contacts, const std::vector<ReplayedPath>* replay = nullptr,
+             bool record = true);
 
   /// New levels (at a time every old and new step divides); contacts keep their history and last force.
   void set_levels(const std::vector<int>& levels);
@@ -133,16 +136,18 @@ class MultilevelGroup {
   const ContactEvents& events() const { return events_; }
   /// Particle-steps taken so far: each integrated particle's steps, summed.
   std::uint64_t particle_steps() const { return particle_steps_; }
-  /// The steps of the last advance(): particle p's are step_records()[record_start(p) ..
-  /// record_start(p + 1)], in time order.
+  /// Whether the last advance() recorded its steps: with `record`, when they average at most a few
+  /// per particle. Then integrated particle p's are step_records()[record_start(p) ..
+  /// record_start(p + 1)], in time order (a replayed particle's are not written).
+  bool steps_recorded() const { return steps_recorded_; }
   const std::vector<StepRecord>& step_records() const { return records_; }
   std::uint32_t record_start(std::size_t p) const { return record_start_[p]; }
   /// Every pair contact that touched at an evaluation of the last advance() (its start included),
   /// in the order they first touched.
   const std::vector<ContactImpulse>& contact_impulses() const { return impulses_; }
-  /// The contacts that ended since the last reset, in the order they ended.
+  /// The contacts that ended since the last reset, in the order they ended (with `record`).
   const std::vector<EndedContact>& ended_contacts() const { return ended_log_; }
-  /// Per particle: the moving walls' work on it since the last reset (physics.walls_move) [J].
+  /// Per particle: the moving walls' work on it since the last reset (physics.walls_move, `record`) [J].
   const std::vector<Real>& particle_wall_work() const { return particle_wall_work_; }
   /// Heap bytes held (memory_usage.h: by capacity).
   std::size_t memory_bytes() const;
@@ -257,6 +262,8 @@ class MultilevelGroup {
   ContactEvents events_;
   std::uint64_t particle_steps_ = 0;
   std::vector<ReplayedPath> replayed_;  // empty: every particle integrated
+  bool recording_ = true;
+  bool steps_recorded_ = false;  // by the last advance
   std::int64_t advance_ticks_ = 0;      // of the advance() under way
   std::vector<StepRecord> records_;
   std::vector<std::uint32_t> record_start_;

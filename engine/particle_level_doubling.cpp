@@ -55,7 +55,7 @@ void take_retry(const MemberRetry& retry, const IslandPhysics& physics, const st
   State& s = island.state;
   for (std::size_t q = 0; q < s.size(); ++q) {
     island.excursion[q] = std::max(island.excursion[q], (s.position[q] - origin[q]).norm() + retry.half_excursion(q));
-    const TrialState end = retry.end(MemberRetry::half, q);
+    const TrialState end = retry.end(MemberRetry::Trial::half, q);
     s.position[q] = end.position;
     s.velocity[q] = end.velocity;
     s.angular_velocity[q] = end.angular_velocity;
@@ -150,6 +150,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
   std::vector<Real> errors(n);
   std::vector<std::uint8_t> failed(n);
   std::vector<int> stability(n);
+  std::vector<std::uint8_t> live(n);  // per chunk: the members its next try redoes
   // Chunk by chunk: a chunk is one step of the island's coarsest member, so levels change (and
   // promote) at every chunk, not once per round.
   for (std::int64_t tick = begin; tick < end;) {
@@ -197,11 +198,11 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
     const State& start = island.state;
     MemberRetry& retry = scratch.retry;
     retry.clear();
-    std::vector<std::uint8_t> live(n, 0);
+    live.assign(n, 0);
     for (;;) {
       for (std::size_t q = 0; q < n; ++q) halves[q] = std::max(levels[q] - 1, level_min);
       std::uint64_t steps = 0;
-      if (retry.active() || std::find(live.begin(), live.end(), 1) != live.end()) {
+      if (std::find(live.begin(), live.end(), 1) != live.end()) {
         retry.redo(start, island.pairs, island.walls, candidates, walls, mp, t, ticks, live, levels, halves, full,
                    half);
         steps = retry.particle_steps();
@@ -218,7 +219,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
       // Each member's ends of the two trials, merged with a retry's.
       const auto end_of = [&](MemberRetry::Trial trial, std::size_t q) -> TrialState {
         if (retry.active()) return retry.end(trial, q);
-        const State& r = trial == MemberRetry::full ? full.state() : half.state();
+        const State& r = trial == MemberRetry::Trial::full ? full.state() : half.state();
         return {r.position[q], r.velocity[q], r.angular_velocity[q]};
       };
       bool accepted = true;
@@ -228,36 +229,30 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
           decision[q] = {true, false, levels[q]};
           continue;
         }
-        const TrialState one = end_of(MemberRetry::full, q);
-        const TrialState two = end_of(MemberRetry::half, q);
+        const TrialState one = end_of(MemberRetry::Trial::full, q);
+        const TrialState two = end_of(MemberRetry::Trial::half, q);
         errors[q] = step_error(one, two, two.position - start.position[q], chunk, reference_time(q), start.radius[q],
                                settings.velocity_weight, settings.dx_min);
       }
       // A coarse member stands in for its finer partners as its prediction: where that missed its
       // booked path by more than a finer partner's error budget, the coarse member is at fault (its
-      // own displacement may be tiny: a heavy ball under light ones). After a retry, a border member
-      // stands in for its live partners as its first path, whatever their levels.
+      // own displacement may be tiny: a heavy ball under light ones).
       const std::vector<std::pair<ParticleIndex, ParticleIndex>> touching =
           retry.active() ? retry.touching_pairs() : full.touching_pairs();
       const auto miss_of = [&](std::size_t q) { return retry.active() ? retry.miss(q) : full.prediction_miss()[q]; };
-      const auto border_of_live = [&](std::size_t border, std::size_t other) {
-        return retry.active() && retry.in_group(border) && !retry.live(border) && retry.live(other);
-      };
-      const auto check_miss = [&](std::size_t coarse, std::size_t fine, int level) {
+      const auto check_miss = [&](std::size_t coarse, std::size_t fine, int level, Real miss) {
         if (start.inv_mass[coarse] == 0 || start.inv_mass[fine] == 0) return;
         // The finer partner's budget over one step of the coarse member (the miss is its largest over one).
         const Real coarse_step = std::ldexp(settings.dt_base, level);
-        const Real budget = (end_of(MemberRetry::half, fine).position - start.position[fine]).norm() *
+        const Real budget = (end_of(MemberRetry::Trial::half, fine).position - start.position[fine]).norm() *
                                 (coarse_step / chunk) +
                             settings.dx_min * start.radius[fine] * coarse_step / reference_time(fine);
-        const Real error = miss_of(coarse) / budget;
+        const Real error = miss / budget;
         if (!(error <= errors[coarse])) errors[coarse] = error;
       };
       for (const auto& [a, b] : touching) {
-        if (levels[a] > levels[b]) check_miss(a, b, levels[a]);
-        if (levels[b] > levels[a]) check_miss(b, a, levels[b]);
-        if (border_of_live(a, b)) check_miss(a, b, std::max(levels[a], levels[b]));
-        if (border_of_live(b, a)) check_miss(b, a, std::max(levels[a], levels[b]));
+        if (levels[a] > levels[b]) check_miss(a, b, levels[a], miss_of(a));
+        if (levels[b] > levels[a]) check_miss(b, a, levels[b], miss_of(b));
       }
       for (std::size_t q = 0; q < n; ++q) {
         if (start.inv_mass[q] == 0) continue;
@@ -266,7 +261,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
                                    settings.tolerance, aligned);
         // No promotion to the stability cap: there the full trial reaches velocity Verlet's limit, its
         // error grows much faster than the 2^p a promotion assumes, and most such promotions failed,
-        // each failure redoing the whole island. A member may still reach the cap from above.
+        // each failure a retry. A member may still reach the cap from above.
         if (decision[q].level > levels[q] && decision[q].level >= stability[q]) decision[q].level = levels[q];
         failed[q] = !decision[q].accept;
       }
@@ -290,14 +285,16 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
             next[p] = std::min(next[p], std::max(decision[q].level, levels[p] - drop));
           }
         // The next try redoes the failed members, every touching partner of one and whatever an
-        // earlier try of this chunk redid; the whole island when that is most of it.
+        // earlier try of this chunk redid; the whole island when that is most of it, or when the
+        // first try did not record its steps for a replay.
         for (std::size_t q = 0; q < n; ++q)
           if (failed[q]) live[q] = 1;
         for (const auto& [i, j] : touching)
           if (failed[i] || failed[j]) live[i] = live[j] = 1;
         for (std::size_t q = 0; q < n; ++q)
           if (next[q] != levels[q]) live[q] = 1;
-        const bool whole = 2 * static_cast<std::size_t>(std::count(live.begin(), live.end(), 1)) > n;
+        const bool whole = 2 * static_cast<std::size_t>(std::count(live.begin(), live.end(), 1)) > n ||
+                           !full.steps_recorded() || !half.steps_recorded();
         // Rejected: the steps of this try's members that the next one redoes.
         for (std::size_t q = 0; q < n; ++q)
           if (whole || live[q])

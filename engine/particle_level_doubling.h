@@ -5,9 +5,10 @@
 // every level halved; each member's two results are compared over the chunk in the norm of
 // step_control.h (a coarse member's error also counts how far its prediction missed, over its finer
 // partners' budget), and each member's level is chosen from its own error. A member whose error is too
-// large lowers its level, and its coarser touching partners with it, and the chunk is tried again;
-// when all pass, the island keeps the second trial (the finer one) and each member the level its error
-// asks for. So a fine member does not set the step of the whole island.
+// large lowers its level, and its coarser touching partners with it, and the chunk is tried again for
+// the members the failure touches (member_retry.h); when all pass, the island keeps the second trial
+// (the finer one, merged with the retries) and each member the level its error asks for. So a fine
+// member does not set the step of the whole island.
 #include <cstdint>
 #include <vector>
 
