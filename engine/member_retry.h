@@ -2,13 +2,12 @@
 // The retry of a rejected chunk with a level per particle (docs/physics.md 6.11): instead of the whole
 // island, only the `live` members (those that failed, their touching partners, those whose level
 // changed, and what earlier retries of the chunk redid) are integrated again, at their new levels,
-// in both trials. Their other
-// candidate partners, the border, replay the paths the first try gave them (MultilevelGroup's
-// ReplayedPath), so the live members meet them where they were; each border particle then receives at
-// the chunk's end what its live partners now gave it less what they gave it in the first try (impulse,
-// its first moment about the chunk's end, angular impulse), so linear momentum balances to round-off.
-// Everything else keeps the first try. The merged trials are read member by member, and the merged
-// half trial is what the island keeps when every member passes.
+// in both trials. Their other candidate partners, the border, replay the paths the first try gave
+// them (MultilevelGroup's ReplayedPath), so the live members meet them where they were; each border
+// particle then receives at the chunk's end what its live partners now gave it less what they gave
+// it in the first try (impulse, its first moment about the chunk's end, angular impulse), so linear
+// momentum balances to round-off. Everything else keeps the first try. The merged trials are read
+// member by member, and the merged half trial is what the island keeps when every member passes.
 // The first try's groups must stay unchanged while a retry is read: the border replays their records.
 #include <cstdint>
 #include <utility>
@@ -40,9 +39,6 @@ class MemberRetry {
             const broadphase::CandidatePairs& candidates, Walls& walls, const MultilevelPhysics& physics, Real time,
             std::int64_t ticks, const std::vector<std::uint8_t>& live, const std::vector<int>& levels,
             const std::vector<int>& halves, const MultilevelGroup& first_full, const MultilevelGroup& first_half);
-
-  bool live(std::size_t q) const { return live_[q] != 0; }
-  bool in_group(std::size_t q) const { return sub_of_[q] != outside; }
 
   /// Member q's end of a trial, merged.
   TrialState end(Trial trial, std::size_t q) const;
