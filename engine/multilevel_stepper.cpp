@@ -510,14 +510,13 @@ void MultilevelGroup::advance(std::int64_t ticks) {
   // long coarse one would hold them all, and a retry of it redoes the whole group instead.
   steps_recorded_ = false;
   if (recording_) {
-    std::uint64_t total = 0;
-    for (std::size_t p = 0; p < n; ++p)
+    record_start_.assign(n + 1, 0);
+    std::uint64_t total = 0;  // the starts are read only when it stays within the limit
+    for (std::size_t p = 0; p < n; ++p) {
       total += static_cast<std::uint64_t>(ticks / ticks_of_index(level_index(level_[p])));
+      record_start_[p + 1] = static_cast<std::uint32_t>(total);
+    }
     if (total <= max_records_per_particle * n) {
-      record_start_.assign(n + 1, 0);
-      for (std::size_t p = 0; p < n; ++p)
-        record_start_[p + 1] =
-            record_start_[p] + static_cast<std::uint32_t>(ticks / ticks_of_index(level_index(level_[p])));
       records_.resize(total);
       steps_recorded_ = true;
     }
