@@ -157,20 +157,39 @@ std::vector<std::pair<ParticleIndex, ParticleIndex>> MemberRetry::touching_pairs
   return out;
 }
 
+namespace {
+
+/// The slots of `first` that `keep` accepts and every slot of `again`, in key order (both lists
+/// ascend in key, and no kept key is in `again`): each as (from `again`, slot).
+template <class List, class Keep>
+std::vector<std::pair<bool, std::uint32_t>> merge_by_key(const List& first, Keep keep, const List& again) {
+  DEM_VALIDATE(std::is_sorted(first.key.begin(), first.key.end()) && std::is_sorted(again.key.begin(), again.key.end()));
+  std::vector<std::pair<bool, std::uint32_t>> order;
+  order.reserve(first.size() + again.size());
+  std::uint32_t a = 0;
+  const auto again_size = static_cast<std::uint32_t>(again.size());
+  for (std::uint32_t k = 0; k < first.size(); ++k) {
+    if (!keep(k)) continue;
+    for (; a < again_size && again.key[a] < first.key[k]; ++a) order.push_back({true, a});
+    order.push_back({false, k});
+  }
+  for (; a < again_size; ++a) order.push_back({true, a});
+  return order;
+}
+
+}  // namespace
+
 void MemberRetry::half_contacts(PairContacts& pairs, WallContacts& wall_contacts) const {
   const TrialRetry& retried = of(Trial::half);
+  // The first try's contacts without a live side and the retry's, merged in key order.
   const PairContacts first = retried.first->pair_contacts();
   const PairContacts again = retried.group.pair_contacts();
-  // The first try's contacts without a live side and the retry's, merged in key order.
-  std::vector<std::pair<std::uint64_t, std::pair<bool, std::uint32_t>>> order;
-  for (std::uint32_t k = 0; k < first.size(); ++k)
-    if (!live_[first.i[k]] && !live_[first.j[k]]) order.push_back({first.key[k], {false, k}});
-  for (std::uint32_t k = 0; k < again.size(); ++k) order.push_back({again.key[k], {true, k}});
-  std::sort(order.begin(), order.end());
+  const auto order =
+      merge_by_key(first, [&](std::uint32_t k) { return !live_[first.i[k]] && !live_[first.j[k]]; }, again);
   pairs.parts = first.parts;
   pairs.resize(order.size());
   for (std::size_t q = 0; q < order.size(); ++q) {
-    const auto [from_retry, k] = order[q].second;
+    const auto [from_retry, k] = order[q];
     copy_pair(from_retry ? again : first, k, pairs, q);
     if (from_retry) pairs.i[q] = group_[again.i[k]], pairs.j[q] = group_[again.j[k]];
   }
@@ -178,14 +197,11 @@ void MemberRetry::half_contacts(PairContacts& pairs, WallContacts& wall_contacts
 
   const WallContacts first_walls = retried.first->wall_contacts();
   const WallContacts again_walls = retried.group.wall_contacts();
-  std::vector<std::pair<std::uint64_t, std::pair<bool, std::uint32_t>>> wall_order;
-  for (std::uint32_t k = 0; k < first_walls.size(); ++k)
-    if (!live_[first_walls.particle[k]]) wall_order.push_back({first_walls.key[k], {false, k}});
-  for (std::uint32_t k = 0; k < again_walls.size(); ++k) wall_order.push_back({again_walls.key[k], {true, k}});
-  std::sort(wall_order.begin(), wall_order.end());
+  const auto wall_order =
+      merge_by_key(first_walls, [&](std::uint32_t k) { return !live_[first_walls.particle[k]]; }, again_walls);
   wall_contacts.resize(wall_order.size());
   for (std::size_t q = 0; q < wall_order.size(); ++q) {
-    const auto [from_retry, k] = wall_order[q].second;
+    const auto [from_retry, k] = wall_order[q];
     copy_wall(from_retry ? again_walls : first_walls, k, wall_contacts, q);
     if (from_retry) wall_contacts.particle[q] = group_[again_walls.particle[k]];
   }

@@ -23,6 +23,23 @@ void spin_about_normal(Vec3& w) { w.x() = 0, w.y() = 0; }
 constexpr std::uint32_t no_impulse = 0xffffffffu;  // a slot that has not touched in this advance
 constexpr std::uint64_t max_records_per_particle = 32;  // steps kept for a retry, on average
 
+/// A contact of one per-level list, by key: its level index, its slot in that list and the slot's row.
+struct KeyedSlot {
+  std::uint64_t key = 0;
+  std::uint32_t level = 0, slot = 0, row = 0;
+  bool operator<(const KeyedSlot& other) const { return key < other.key; }
+};
+
+/// Sorts `order`, made of runs order[bounds[r] .. bounds[r + 1]] (one per level), each of which
+/// usually ascends already (a level's list is in key order while slots follow ids): a run that does
+/// not is sorted, and the runs are merged. Keys are unique, so this is std::sort's order.
+void sort_level_runs(std::vector<KeyedSlot>& order, const std::vector<std::size_t>& bounds) {
+  const auto at = [&](std::size_t r) { return order.begin() + static_cast<std::ptrdiff_t>(bounds[r]); };
+  for (std::size_t r = 0; r + 1 < bounds.size(); ++r)
+    if (!std::is_sorted(at(r), at(r + 1))) std::sort(at(r), at(r + 1));
+  for (std::size_t r = 1; r + 1 < bounds.size(); ++r) std::inplace_merge(at(0), at(r), at(r + 1));
+}
+
 }  // namespace
 
 MultilevelGroup::MultilevelGroup(State state, broadphase::CandidatePairs candidates, Walls& walls,
@@ -220,15 +237,19 @@ WallContacts MultilevelGroup::wall_contacts() const {
 }
 
 void MultilevelGroup::wall_contacts(WallContacts& out) const {
-  std::vector<std::pair<std::uint64_t, std::pair<std::size_t, std::uint32_t>>> order;
-  for (std::size_t l = 0; l < wall_contacts_.size(); ++l)
-    for (std::uint32_t k = 0; k < wall_contacts_[l].size(); ++k) order.push_back({wall_contacts_[l].key[k], {l, k}});
-  std::sort(order.begin(), order.end());
+  std::vector<KeyedSlot> order;
+  std::vector<std::size_t> bounds{0};
+  for (std::size_t l = 0; l < wall_contacts_.size(); ++l) {
+    for (std::uint32_t k = 0; k < wall_contacts_[l].size(); ++k)
+      order.push_back({wall_contacts_[l].key[k], static_cast<std::uint32_t>(l), k, 0});
+    bounds.push_back(order.size());
+  }
+  sort_level_runs(order, bounds);
   out.resize(order.size());
   for (std::size_t q = 0; q < order.size(); ++q) {
-    const auto [l, k] = order[q].second;
-    copy_wall(wall_contacts_[l], k, out, q);
-    out.particle[q] = wall_members_[l][wall_contacts_[l].particle[k]];
+    const KeyedSlot& from = order[q];
+    copy_wall(wall_contacts_[from.level], from.slot, out, q);
+    out.particle[q] = wall_members_[from.level][wall_contacts_[from.level].particle[from.slot]];
   }
 }
 
@@ -275,14 +296,24 @@ void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
   }
 }
 
-void MultilevelGroup::add_load(ParticleIndex p, Vec3 force, Vec3 torque, Real weight) {
+inline void MultilevelGroup::add_load(ParticleIndex p, const Vec3& force, const Vec3& torque, Real weight) {
   if (state_.inv_mass[p] == 0) return;
-  if (physics_.dimension == 2) flatten_to_plane(force), spin_about_normal(torque);
   if (!loaded_[p]) {
     loaded_[p] = 1;
     loaded_list_.push_back(p);
   }
   TickLoad& l = load_[p];
+  if (physics_.dimension == 2) {
+    const Vec3 f(force.x(), force.y(), 0);
+    l.force += f;
+    l.weighted_force += weight * f;
+    if (rotation_) {
+      const Vec3 t(0, 0, torque.z());
+      l.torque += t;
+      l.weighted_torque += weight * t;
+    }
+    return;
+  }
   l.force += force;
   l.weighted_force += weight * force;
   if (rotation_) {
@@ -572,26 +603,24 @@ PairContacts MultilevelGroup::pair_contacts() const {
 
 void MultilevelGroup::pair_contacts(PairContacts& out) const {
   const std::size_t n = state_.size();
-  std::vector<std::pair<std::uint64_t, std::pair<std::size_t, std::uint32_t>>> order;
+  std::vector<KeyedSlot> order;
+  std::vector<std::size_t> bounds{0};
   for (std::size_t c = 0; c < neighbours_.size(); ++c) {
     const NeighbourContacts& nb = neighbours_[c];
-    if (nb.list.row_start.size() != n + 1) continue;
-    for (std::size_t a = 0; a < n; ++a)
+    for (ParticleIndex a : rows_[c])
       for (std::uint32_t k = nb.list.row_start[a]; k < nb.list.row_start[a + 1]; ++k)
         if (nb.touching[k] == touching_yes)
-          order.push_back({pair_key(state_.id[a], state_.id[nb.list.j[k]]), {c, k}});
+          order.push_back({pair_key(state_.id[a], state_.id[nb.list.j[k]]), static_cast<std::uint32_t>(c), k, a});
+    bounds.push_back(order.size());
   }
-  std::sort(order.begin(), order.end());
+  sort_level_runs(order, bounds);
   out.parts = parts_;
   out.resize(order.size());
   for (std::size_t q = 0; q < order.size(); ++q) {
-    const auto [c, k] = order[q].second;
-    const PairContacts& list = neighbours_[c].list;
-    copy_pair(list, k, out, q);
-    out.key[q] = order[q].first;
-    // The row of slot k: the last row starting at or before it.
-    const auto row = std::upper_bound(list.row_start.begin(), list.row_start.end(), k) - list.row_start.begin() - 1;
-    out.i[q] = static_cast<ParticleIndex>(row);
+    const KeyedSlot& from = order[q];
+    copy_pair(neighbours_[from.level].list, from.slot, out, q);
+    out.key[q] = from.key;
+    out.i[q] = from.row;
   }
   out.index_rows(n);
 }

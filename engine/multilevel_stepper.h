@@ -196,7 +196,7 @@ class MultilevelGroup {
   const StepRecord& replayed_step(ParticleIndex p, std::int64_t start, std::int64_t ticks) const {
     return replayed_[p].steps[start / ticks];
   }
-  void add_load(ParticleIndex p, Vec3 force, Vec3 torque, Real weight);
+  void add_load(ParticleIndex p, const Vec3& force, const Vec3& torque, Real weight);
   void clear_loads();
   /// Positions at the end of the steps of the particles at level index <= due, from their books (in
   /// state_ and view_).
