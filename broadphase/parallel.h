@@ -77,6 +77,7 @@ void isolated(F&& f) {
 /// same answer: range(begin, end, acc) folds a sub-range into acc and returns it; combine(a, b) joins two.
 template <class T, class Range, class Combine>
 T exact_reduce(std::size_t n, std::size_t grain, T identity, const Range& range, const Combine& combine) {
+  if (n <= grain) return range(std::size_t{0}, n, identity);  // one sub-range anyway: no tasks
   return tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n, grain), identity,
       [&](const tbb::blocked_range<std::size_t>& r, T acc) { return range(r.begin(), r.end(), acc); }, combine);
@@ -167,6 +168,7 @@ void isolated(F&& f) {
 /// same answer: range(begin, end, acc) folds a sub-range into acc and returns it; combine(a, b) joins two.
 template <class T, class Range, class Combine>
 T exact_reduce(std::size_t n, std::size_t grain, T identity, const Range& range, const Combine& combine) {
+  if (n <= grain) return range(std::size_t{0}, n, identity);  // one sub-range anyway: no threads
   // Each sub-range folds on its own, then joins the total under a lock: the combine is order-free, and
   // nothing is allocated (the broadphase allocates nothing after warm-up).
   std::mutex mutex;

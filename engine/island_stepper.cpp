@@ -177,6 +177,9 @@ bool wall_may_close(const State& s, std::size_t a, const Walls& walls, std::size
   if (s.inv_mass[a] == 0) return false;
   const Real closing = (s.velocity[a] - walls.velocity_at(w, s.position[a])).norm() * h +
                        0.5 * acceleration_of(s, a, gravity).norm() * h * h;
+  // A filtered wall farther than that from the sphere has no feature within it: the common case,
+  // decided without the features.
+  if (!walls.may_touch(w, s.position[a], s.radius[a], 2 * closing)) return false;
   // A wall feature within twice the closing distance that is not touched yet (the features touched
   // at a radius are touched at any larger one, so a larger count means a new one).
   return walls.touching_count(w, s.position[a], s.radius[a] + 2 * closing) >

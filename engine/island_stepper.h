@@ -22,6 +22,7 @@
 #include "engine/multilevel_stepper.h"
 #include "engine/state.h"
 #include "engine/step_watch.h"
+#include "engine/wall_lists.h"
 #include "engine/walls.h"
 
 namespace dem {
@@ -83,6 +84,7 @@ struct IslandScratch {
   IslandState full, half;           // the two trials
   MultilevelGroup levels_full, levels_half;  // the two trials with a level per particle
   MemberRetry retry;                          // their retries of the members a rejection touches
+  WallLists wall_lists;  // the island's at the start of a round, which the trials' levels select from
   std::vector<Vec3> origin;         // member positions at the start of the round [m]
 };
 

@@ -89,6 +89,7 @@ void MemberRetry::run(TrialRetry& trial, const std::vector<int>& levels, const M
     path.end_velocity = ends.velocity[q];
     path.end_spin = ends.angular_velocity[q];
   }
+  trial.group.take_wall_lists_from(first.wall_lists_source(), &group_);
   trial.group.reset(sub_state_, sub_candidates_, walls, physics, time, sub_levels_, sub_pairs_, sub_walls_,
                     &trial.replayed, false);
   trial.group.advance(ticks);

@@ -137,7 +137,6 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
   resize_keeping(member_state_, count);
   resize_keeping(wall_start_, count);
   resize_keeping(wall_lists_, count);
-  for (WallLists& lists : wall_lists_) lists.clear();  // their particles change
 
   // Candidate pairs by contact level.
   for (broadphase::CandidatePairs& c : level_candidates_) c.row_start.assign(n + 1, 0);
@@ -227,6 +226,15 @@ void MultilevelGroup::distribute(const PairContacts& pairs, const WallContacts& 
   for (std::size_t l = 0; l < count; ++l) {
     select_particles(state_, wall_members_[l], member_state_[l]);
     wall_start_[l].assign(wall_members_[l].size() + 1, 0);
+    // Its wall lists (their particles change): selected from the source's, else built at the first
+    // evaluation.
+    if (!source_lists_) {
+      wall_lists_[l].clear();
+      continue;
+    }
+    source_members_.clear();
+    for (ParticleIndex p : wall_members_[l]) source_members_.push_back(source_slots_ ? (*source_slots_)[p] : p);
+    wall_lists_[l].select(*source_lists_, source_members_);
   }
 }
 
@@ -632,7 +640,7 @@ std::size_t MultilevelGroup::memory_bytes() const {
                       heap_bytes(fill_) + heap_bytes(member_index_) + heap_bytes(seen_) +
                       heap_bytes(level_step_) + heap_bytes(replayed_) + heap_bytes(records_) +
                       heap_bytes(record_start_) + heap_bytes(impulses_) + heap_bytes(ended_log_) +
-                      heap_bytes(particle_wall_work_);
+                      heap_bytes(particle_wall_work_) + heap_bytes(source_members_);
   const auto each = [&](const auto& per_level) {
     total += heap_bytes(per_level);
     for (const auto& item : per_level) total += heap_bytes(item);

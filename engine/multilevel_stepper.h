@@ -103,6 +103,16 @@ class MultilevelGroup {
              const WallContacts& wall_contacts, const std::vector<ReplayedPath>* replay = nullptr,
              bool record = true);
 
+  /// From the next reset on, each level's wall lists are selected from `lists` (built for other
+  /// slots: this group's slot p is their particle (*slots)[p], or p without `slots`) rather than
+  /// built anew; both must outlive the group's advances. nullptr: each level builds its own.
+  void take_wall_lists_from(const WallLists* lists, const std::vector<ParticleIndex>* slots = nullptr) {
+    source_lists_ = lists;
+    source_slots_ = slots;
+  }
+  /// The wall lists given to take_wall_lists_from, if they index this group's own slots.
+  const WallLists* wall_lists_source() const { return source_slots_ ? nullptr : source_lists_; }
+
   /// New levels (at a time every old and new step divides); contacts keep their history and last force.
   void set_levels(const std::vector<int>& levels);
 
@@ -239,6 +249,9 @@ class MultilevelGroup {
   std::vector<WallContacts> wall_contacts_;
   std::vector<std::vector<std::uint32_t>> wall_start_;
   std::vector<WallLists> wall_lists_;
+  const WallLists* source_lists_ = nullptr;               // take_wall_lists_from
+  const std::vector<ParticleIndex>* source_slots_ = nullptr;
+  std::vector<ParticleIndex> source_members_;             // scratch of distribute()
   ContactWorkspace workspace_;
 
   // Per contact level index: the rows holding its candidate pairs, and the particles coarser than it

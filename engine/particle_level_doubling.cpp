@@ -143,6 +143,14 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
   mp.book_events = physics.book_events;
   mp.wall_margin = physics.wall_margin;
   const std::vector<Vec3> origin = island.state.position;
+  // The island's wall lists, made once for the round: every trial's levels select theirs from them.
+  const bool wall_lists = physics.wall_margin > 0 && walls.count() > 0;
+  if (wall_lists) {
+    walls.set_time(t0 + static_cast<Real>(begin) * finest);
+    scratch.wall_lists.build(island.state, walls, physics.wall_margin);
+  }
+  full.take_wall_lists_from(wall_lists ? &scratch.wall_lists : nullptr);
+  half.take_wall_lists_from(wall_lists ? &scratch.wall_lists : nullptr);
   island.excursion.assign(n, 0);
   island.events.clear();
   std::vector<int> halves(n);

@@ -63,6 +63,26 @@ void WallLists::build(const State& s, const Walls& walls, Real margin) {
   built_ = true;
 }
 
+void WallLists::select(const WallLists& parent, const std::vector<std::uint32_t>& members) {
+  built_ = parent.built_;
+  if (!built_) return;
+  const std::size_t n = members.size();
+  start_.assign(n + 1, 0);
+  wall_.clear();
+  listed_.clear();
+  reference_.resize(n);
+  for (std::size_t q = 0; q < n; ++q) {
+    const std::uint32_t p = members[q];
+    wall_.insert(wall_.end(), parent.wall_.begin() + parent.start_[p], parent.wall_.begin() + parent.start_[p + 1]);
+    start_[q + 1] = static_cast<std::uint32_t>(wall_.size());
+    if (start_[q + 1] > start_[q]) listed_.push_back(static_cast<std::uint32_t>(q));
+    reference_[q] = parent.reference_[p];
+  }
+  rounding_ = parent.rounding_;
+  time_ = parent.time_;
+  margin_ = parent.margin_;
+}
+
 bool WallLists::valid(const State& s, const Walls& walls) const {
   if (!built_ || reference_.size() != s.size() || !(walls.time() >= time_)) return false;
   Real travel = 0;

@@ -23,6 +23,10 @@ class WallLists {
   /// Particles of inverse mass 0 get empty lists.
   void build(const State& s, const Walls& walls, Real margin);
 
+  /// The lists of `parent` for its particles `members` (in that order), valid by the same test
+  /// against the positions of parent's build: not valid when parent is not built.
+  void select(const WallLists& parent, const std::vector<std::uint32_t>& members);
+
   /// Forgets the lists (particles added or removed: radii may differ slot by slot): valid() is false
   /// until the next build.
   void clear() { built_ = false; }

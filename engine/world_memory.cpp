@@ -35,7 +35,7 @@ std::size_t doubling_bytes(DoublingWork& d) {
   d.scratch.for_each([&](const IslandScratch& s) {
     total += heap_bytes(s.contacts) + exact_bytes(s.exact) + island_bytes(s.full) + island_bytes(s.half) +
              heap_bytes(s.origin) + s.levels_full.memory_bytes() + s.levels_half.memory_bytes() +
-             s.retry.memory_bytes();
+             s.retry.memory_bytes() + s.wall_lists.memory_bytes();
   });
   return total;
 }

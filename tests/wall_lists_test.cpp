@@ -2,7 +2,8 @@
 // particle's list touches it, for prisms that turn about an off-axis centre, translate and ramp up,
 // and planes, boxes and cylinders at rest or translating; a list holds exactly the walls within the
 // margin, for up to 64 walls and for more; a mill and a box of particles run to the same state with
-// the lists as without them.
+// the lists as without them, levels per particle included; lists selected for some particles are
+// their rows.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -174,6 +175,50 @@ TEST(WallLists, EachListHoldsExactlyTheWallsWithinTheMarginForAnyNumberOfWalls) 
   }
 }
 
+TEST(WallLists, ListsSelectedForSomeParticlesAreTheirRowsWithTheSameValidity) {
+  std::vector<WallConfig> config;
+  for (int w = 0; w < 12; ++w) {
+    const Real angle = 2 * std::acos(-1.0) * w / 12.0;
+    config.push_back(bar(0.1 * Vec3(std::cos(angle), std::sin(angle), 0), 0.004, 0.003, 0.05));
+  }
+  const Walls walls(config, one_material());
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<Real> u(-1, 1);
+  State s;
+  for (int p = 0; p < 400; ++p)
+    s.add(Vec3(0.11 * u(rng), 0.11 * u(rng), 0.02 * u(rng)), Vec3::Zero(), Vec3::Zero(), 0.004, p % 50 == 0 ? 0 : 1, 1, 0);
+  const Real margin = 0.004;
+  WallLists parent;
+  parent.build(s, walls, margin);
+  // Every third particle, last first, as a group of its own.
+  std::vector<std::uint32_t> members;
+  for (int p = 399; p >= 0; p -= 3) members.push_back(static_cast<std::uint32_t>(p));
+  WallLists selected;
+  selected.select(parent, members);
+  State sub;
+  select_particles(s, members, sub);
+  std::size_t entries = 0;
+  std::vector<std::uint32_t> listed;
+  for (std::size_t q = 0; q < members.size(); ++q) {
+    std::vector<std::uint16_t> expected, got;
+    for (std::uint32_t k = parent.row_start(members[q]); k < parent.row_start(members[q] + 1); ++k)
+      expected.push_back(parent.wall(k));
+    for (std::uint32_t k = selected.row_start(q); k < selected.row_start(q + 1); ++k) got.push_back(selected.wall(k));
+    ASSERT_EQ(got, expected) << "member " << q;
+    if (!got.empty()) listed.push_back(static_cast<std::uint32_t>(q));
+    entries += got.size();
+  }
+  EXPECT_GT(entries, 10u) << "some members list bars";
+  EXPECT_EQ(selected.listed_particles(), listed);
+  EXPECT_EQ(selected.particle_count(), members.size());
+  EXPECT_TRUE(selected.valid(sub, walls));
+  sub.position[5].x() += 1.01 * margin;  // measured from where the parent's build had it
+  EXPECT_FALSE(selected.valid(sub, walls));
+  WallLists unbuilt;
+  selected.select(unbuilt, members);
+  EXPECT_FALSE(selected.valid(sub, walls)) << "lists selected from unbuilt ones are not valid";
+}
+
 TEST(WallLists, ValidityFollowsTheMarginLessTheWallsTravel) {
   std::vector<WallConfig> config{bar(Vec3(0.1, 0, 0), 0.01, 0.006, 0.05)};
   config[0].angular_velocity = Vec3(0, 0, 2);  // no ramp: the far corner moves at 2 * reach m/s
@@ -198,10 +243,15 @@ TEST(WallLists, ValidityFollowsTheMarginLessTheWallsTravel) {
 }
 
 TEST(WallLists, AMillRunsToTheSameStateWithAndWithoutThem) {
+  // The fixed step with each stepper, and levels per particle (whose trials select their levels'
+  // lists from their island's).
   const std::vector<std::vector<std::string>> runs = {
-      {}, {"integrator.method=\"exact\"", "contacts[0].sliding_friction=0.0", "contacts[0].rolling_friction=0.0"}};
-  for (const std::vector<std::string>& overrides : runs) {
-    SCOPED_TRACE(overrides.empty() ? "verlet" : "exact");
+      {},
+      {"integrator.method=\"exact\"", "contacts[0].sliding_friction=0.0", "contacts[0].rolling_friction=0.0"},
+      {"integrator.control=\"doubling\"", "integrator.tolerance=0.1", "integrator.particle_levels=true"}};
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const std::vector<std::string>& overrides = runs[r];
+    SCOPED_TRACE(r == 0 ? "verlet" : r == 1 ? "exact" : "levels per particle");
     std::uint64_t hash[2];
     std::size_t wall_bytes[2];
     for (int with : {0, 1}) {
