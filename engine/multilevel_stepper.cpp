@@ -21,7 +21,6 @@ void flatten_to_plane(Vec3& v) { v.z() = 0; }
 void spin_about_normal(Vec3& w) { w.x() = 0, w.y() = 0; }
 
 constexpr std::uint32_t no_impulse = 0xffffffffu;  // a slot that has not touched in this advance
-constexpr std::uint64_t max_records_per_particle = 32;  // steps kept for a retry, on average
 
 /// A contact of one per-level list, by key: its level index, its slot in that list and the slot's row.
 struct KeyedSlot {
@@ -555,7 +554,7 @@ void MultilevelGroup::advance(std::int64_t ticks) {
       total += static_cast<std::uint64_t>(ticks / ticks_of_index(level_index(level_[p])));
       record_start_[p + 1] = static_cast<std::uint32_t>(total);
     }
-    if (total <= max_records_per_particle * n) {
+    if (total <= max_recorded_steps_per_particle * n) {
       records_.resize(total);
       steps_recorded_ = true;
     }

@@ -97,6 +97,22 @@ void stability_levels(const IslandState& island, const MaterialTable& materials,
 
 }  // namespace
 
+static_assert(max_chunk_steps_per_member <= MultilevelGroup::max_recorded_steps_per_particle,
+              "a chunk's steps are recorded for a retry of part of its island");
+
+int chunk_level_bound(const std::vector<int>& levels, const std::vector<Real>& inv_mass, int highest, int level_min) {
+  const std::uint64_t limit = max_chunk_steps_per_member * levels.size();
+  for (int chunk = highest; chunk > level_min; --chunk) {
+    std::uint64_t steps = 0;
+    for (std::size_t q = 0; q < levels.size(); ++q) {
+      const int level = inv_mass[q] == 0 ? chunk : std::min(levels[q], chunk);
+      steps += std::uint64_t{1} << (chunk - std::max(level - 1, level_min));
+    }
+    if (steps <= limit) return chunk;
+  }
+  return level_min;
+}
+
 void anticipate_per_pair(const State& s, const broadphase::CandidatePairs& candidates, const MaterialTable& materials,
                          const Walls& walls, const Vec3& gravity, const DoublingSettings& settings, int chunk_level,
                          std::vector<int>& levels) {
@@ -191,6 +207,9 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
     stability_levels(island, *physics.materials, walls, settings, stability);
     for (std::size_t q = 0; q < n; ++q) levels[q] = std::min(levels[q], stability[q]);
     highest = coarsest();
+    // The chunk is no longer than max_chunk_steps_per_member allows; members above its level step at it.
+    highest = chunk_level_bound(levels, island.state.inv_mass, highest, level_min);
+    for (int& l : levels) l = std::min(l, highest);
     // An immovable member's prediction is its path: it takes the longest step, and its contacts the
     // levels of its partners.
     for (std::size_t q = 0; q < n; ++q)
