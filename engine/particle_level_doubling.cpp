@@ -97,20 +97,15 @@ void stability_levels(const IslandState& island, const MaterialTable& materials,
 
 }  // namespace
 
-static_assert(max_chunk_steps_per_member <= MultilevelGroup::max_recorded_steps_per_particle,
-              "a chunk's steps are recorded for a retry of part of its island");
-
-int chunk_level_bound(const std::vector<int>& levels, const std::vector<Real>& inv_mass, int highest, int level_min) {
-  const std::uint64_t limit = max_chunk_steps_per_member * levels.size();
-  for (int chunk = highest; chunk > level_min; --chunk) {
-    std::uint64_t steps = 0;
-    for (std::size_t q = 0; q < levels.size(); ++q) {
-      const int level = inv_mass[q] == 0 ? chunk : std::min(levels[q], chunk);
-      steps += std::uint64_t{1} << (chunk - std::max(level - 1, level_min));
-    }
-    if (steps <= limit) return chunk;
-  }
-  return level_min;
+int chunk_level_bound(const std::vector<int>& levels, const std::vector<Real>& inv_mass, int highest) {
+  std::vector<int> movable;
+  for (std::size_t q = 0; q < levels.size(); ++q)
+    if (inv_mass[q] != 0) movable.push_back(levels[q]);
+  if (movable.empty()) return highest;
+  // The level of the member at the chunk_level_share quantile, counted from the finest.
+  const auto at = static_cast<std::size_t>(std::ceil(chunk_level_share * static_cast<Real>(movable.size()))) - 1;
+  std::nth_element(movable.begin(), movable.begin() + static_cast<std::ptrdiff_t>(at), movable.end());
+  return std::min(highest, movable[at]);
 }
 
 void anticipate_per_pair(const State& s, const broadphase::CandidatePairs& candidates, const MaterialTable& materials,
@@ -207,8 +202,8 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
     stability_levels(island, *physics.materials, walls, settings, stability);
     for (std::size_t q = 0; q < n; ++q) levels[q] = std::min(levels[q], stability[q]);
     highest = coarsest();
-    // The chunk is no longer than max_chunk_steps_per_member allows; members above its level step at it.
-    highest = chunk_level_bound(levels, island.state.inv_mass, highest, level_min);
+    // A few coarse members do not set the chunk: those above chunk_level_bound step at it.
+    highest = chunk_level_bound(levels, island.state.inv_mass, highest);
     for (int& l : levels) l = std::min(l, highest);
     // An immovable member's prediction is its path: it takes the longest step, and its contacts the
     // levels of its partners.

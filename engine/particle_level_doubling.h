@@ -1,8 +1,8 @@
 #pragma once
 // Step doubling with a level per particle on one island (docs/physics.md 6.10), for velocity Verlet.
 // The island's round is cut into chunks, each one step of its coarsest member, or shorter where a few
-// coarse members would make the fine ones take long runs of steps (chunk_level_bound). A chunk is run
-// twice by the multilevel stepper (multilevel_stepper.h), once with every member at its level and once
+// coarse members would make the many fine ones take long runs of steps (chunk_level_bound). A chunk is
+// run twice by the multilevel stepper (multilevel_stepper.h), once with every member at its level and once
 // with every level halved; each member's two results are compared over the chunk in the norm of
 // step_control.h (a coarse member's error also counts how far its prediction missed, over its finer
 // partners' budget), and each member's level is chosen from its own error. A member whose error is too
@@ -27,15 +27,14 @@ void anticipate_per_pair(const State& state, const broadphase::CandidatePairs& c
                          const MaterialTable& materials, const Walls& walls, const Vec3& gravity,
                          const DoublingSettings& settings, int chunk_level, std::vector<int>& levels);
 
-/// A chunk's half trial takes at most this many steps per member on average: a chunk set by a few
-/// coarse members makes the many fine ones take long runs of steps, over which some member nearly
-/// always fails, and every retry redoes those runs.
-inline constexpr std::uint64_t max_chunk_steps_per_member = 4;
+/// The share of an island's movable members whose levels set its chunk: a few coarse members (a
+/// sphere at the top of a bed with one contact) would make a chunk in which the many fine ones take
+/// long runs of steps, over which some member nearly always fails, and every retry redoes those runs.
+inline constexpr Real chunk_level_share = 0.97;
 
-/// The highest level, at most `highest`, whose step as a chunk keeps its half trial within
-/// max_chunk_steps_per_member: a movable member steps at its level or that one, whichever is lower,
-/// an immovable one (inv_mass 0) at that one, and the half trial one level finer (not below level_min).
-int chunk_level_bound(const std::vector<int>& levels, const std::vector<Real>& inv_mass, int highest, int level_min);
+/// The level at most `highest` that chunk_level_share of the movable members (inv_mass not 0) of
+/// `levels` are at or below; `highest` when none is movable.
+int chunk_level_bound(const std::vector<int>& levels, const std::vector<Real>& inv_mass, int highest);
 
 /// Advances `island` from tick `begin` to `end` of the interval starting at t0 [s] (one step of the
 /// round's level, settings.level_max). `levels` holds each member's level: in, where it starts (clamped
