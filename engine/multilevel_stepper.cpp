@@ -21,6 +21,7 @@ void flatten_to_plane(Vec3& v) { v.z() = 0; }
 void spin_about_normal(Vec3& w) { w.x() = 0, w.y() = 0; }
 
 constexpr std::uint32_t no_impulse = 0xffffffffu;  // a slot that has not touched in this advance
+constexpr std::uint64_t max_records_per_particle = 32;  // steps kept for a retry, on average
 
 /// A contact of one per-level list, by key: its level index, its slot in that list and the slot's row.
 struct KeyedSlot {
@@ -309,23 +310,14 @@ inline void MultilevelGroup::add_load(ParticleIndex p, const Vec3& force, const 
     loaded_[p] = 1;
     loaded_list_.push_back(p);
   }
+  Vec3 f = force, t = torque;
+  if (physics_.dimension == 2) flatten_to_plane(f), spin_about_normal(t);
   TickLoad& l = load_[p];
-  if (physics_.dimension == 2) {
-    const Vec3 f(force.x(), force.y(), 0);
-    l.force += f;
-    l.weighted_force += weight * f;
-    if (rotation_) {
-      const Vec3 t(0, 0, torque.z());
-      l.torque += t;
-      l.weighted_torque += weight * t;
-    }
-    return;
-  }
-  l.force += force;
-  l.weighted_force += weight * force;
+  l.force += f;
+  l.weighted_force += weight * f;
   if (rotation_) {
-    l.torque += torque;
-    l.weighted_torque += weight * torque;
+    l.torque += t;
+    l.weighted_torque += weight * t;
   }
 }
 
@@ -554,7 +546,7 @@ void MultilevelGroup::advance(std::int64_t ticks) {
       total += static_cast<std::uint64_t>(ticks / ticks_of_index(level_index(level_[p])));
       record_start_[p + 1] = static_cast<std::uint32_t>(total);
     }
-    if (total <= max_recorded_steps_per_particle * n) {
+    if (total <= max_records_per_particle * n) {
       records_.resize(total);
       steps_recorded_ = true;
     }

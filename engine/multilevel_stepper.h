@@ -76,9 +76,6 @@ struct ContactImpulse {
 
 class MultilevelGroup {
  public:
-  /// An advance records its steps (steps_recorded) while they average at most this many per particle.
-  static constexpr std::uint64_t max_recorded_steps_per_particle = 32;
-
   /// An empty group, to be set by reset() (a scratch reused from chunk to chunk keeps its storage).
   MultilevelGroup() = default;
   /// Takes the group's particles (slots in id order), its candidate pairs and its walls (which it
@@ -149,8 +146,8 @@ class MultilevelGroup {
   const ContactEvents& events() const { return events_; }
   /// Particle-steps taken so far: each integrated particle's steps, summed.
   std::uint64_t particle_steps() const { return particle_steps_; }
-  /// Whether the last advance() recorded its steps: with `record`, when they average at most
-  /// max_recorded_steps_per_particle. Then integrated particle p's are step_records()[record_start(p) ..
+  /// Whether the last advance() recorded its steps: with `record`, when they average at most 32 per
+  /// particle. Then integrated particle p's are step_records()[record_start(p) ..
   /// record_start(p + 1)], in time order (a replayed particle's are not written).
   bool steps_recorded() const { return steps_recorded_; }
   const std::vector<StepRecord>& step_records() const { return records_; }

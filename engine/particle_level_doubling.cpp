@@ -170,11 +170,12 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
   std::vector<std::uint8_t> failed(n);
   std::vector<int> stability(n);
   std::vector<std::uint8_t> live(n);  // per chunk: the members its next try redoes
-  // Chunk by chunk: a chunk is one step of the island's coarsest member, so levels change (and
-  // promote) at every chunk, not once per round.
+  // Chunk by chunk: a chunk is one step of the island's coarsest member (the few coarsest aside,
+  // below), so levels change (and promote) at every chunk, not once per round.
   for (std::int64_t tick = begin; tick < end;) {
     // Each member's step starts here on its own grid and ends within the round. The chunk is the
-    // longest step of a movable member (an immovable one takes the chunk's level, below).
+    // longest step of a movable member but for a few (chunk_level_bound); an immovable one takes the
+    // chunk's level, below.
     const auto movable = [&](std::size_t q) { return island.state.inv_mass[q] != 0; };
     const auto coarsest = [&] {
       int highest = level_min, any = level_min;
