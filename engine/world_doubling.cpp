@@ -82,6 +82,12 @@ void World::init_doubling() {
                             config_.model.separation, walls_move_, dashpot_velocity(), spectra_ != nullptr,
                             use_wall_lists_ ? skin_ : 0};
   for (auto& level : state_.level) level = static_cast<std::int8_t>(initial_level());
+  // A particle that touches something at the start begins at level_min: its contacts' tangential and
+  // rolling springs start from zero there, a transient as short as the friction's ramp (mu N / (k_t v)
+  // for a sliding one), which no anticipation bounds; the error control lengthens the step from there.
+  const auto start_fine = [&](ParticleIndex p) { state_.level[p] = static_cast<std::int8_t>(c.level_min); };
+  for (std::size_t k = 0; k < pairs_.size(); ++k) start_fine(pairs_.i[k]), start_fine(pairs_.j[k]);
+  for (std::size_t k = 0; k < wall_contacts_.size(); ++k) start_fine(wall_contacts_.particle[k]);
   // Anticipation demotes an approaching particle down to a step of t_c / 8 for the stiffest contact
   // and the lightest pair (m* = m / 2), the most a contact may need to be resolved.
   Real k_max = 0, inv_mass_max = 0, r_max = 0;

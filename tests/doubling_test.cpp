@@ -245,6 +245,32 @@ TEST(Doubling, SeedSlopeErrorIsProportionalToTolerance) {
   EXPECT_LT(spread_of_error_over_tolerance(slope_sweep()), 10.0);
 }
 
+// The ball starts sliding on the slope with its friction spring at zero: the friction and its torque
+// ramp up within mu N / (k_t v), about 5 ms, and the spin carries what a step makes of that ramp
+// through the whole sliding phase. A touching particle's first step is level_min's, so even a loose
+// tolerance with steps of up to 0.1 s resolves the ramp (a first step of t_c / 8, 12.5 ms, would
+// misjudge it by several times the bound below). Against the exact stepper (an independent method,
+// exact between the mode switches it finds as roots) at 0.5 s, mid-slide.
+TEST(Doubling, SeedSlopeResolvesTheFrictionRampAtTheStartEvenAtALooseTolerance) {
+  const auto spin_at_half_second = [](WorldConfig c) {
+    World world(c);
+    const long intervals = std::lround(0.5 / world.sync_interval());
+    run_intervals(world, intervals);
+    EXPECT_NEAR(world.time(), 0.5, 1e-12);
+    return world.state().angular_velocity[0].y();
+  };
+  WorldConfig exact = seed_slope();
+  exact.integrator.method = Method::exact;
+  exact.integrator.dt = 1e-4;
+  const Real reference = spin_at_half_second(exact);
+  WorldConfig loose = seed_slope();
+  set_doubling(loose, 0.1, -14, 0, 0.1);
+  const Real spin = spin_at_half_second(loose);
+  std::printf("spin at 0.5 s: exact stepper %.6f rad/s, doubling at tol 0.1 %.6f rad/s\n", reference, spin);
+  EXPECT_GT(reference, 3.0);  // sliding: the friction torque spins the ball up at about 7 rad/s^2
+  EXPECT_LT(std::abs(spin - reference), 1e-3 * reference);
+}
+
 TEST(Doubling, ClusterErrorFallsAsToleranceTightens) { expect_error_falls(cluster_sweep()); }
 
 TEST(Doubling, ClusterErrorIsProportionalToTolerance) {
