@@ -6,6 +6,7 @@
 #include "engine/integrators.h"
 #include "engine/scheduler.h"
 #include "engine/step_control.h"
+#include "engine/step_watch.h"
 
 namespace dem {
 namespace {
@@ -42,7 +43,7 @@ std::uint64_t step(IslandState& s, const broadphase::CandidatePairs& candidates,
     // The trial's own wall-contact history stands in for the workspace's while it steps.
     std::swap(scratch.exact.history, s.exact_history);
     s.exact_dissipated += exact_step(st, scratch.walls, *physics.materials, candidates, settings, t, h, scratch.exact);
-    s.exact_deepest = Worst::worse(s.exact_deepest, scratch.exact.deepest);
+    s.deepest = Worst::worse(s.deepest, scratch.exact.deepest);
     std::swap(scratch.exact.history, s.exact_history);
     s.wall_work += scratch.exact.wall_work - wall_work;
     s.unresolved += scratch.exact.unresolved - unresolved;
@@ -261,6 +262,10 @@ int advance_island(IslandState& island, const broadphase::CandidatePairs& candid
         ++counters.richardson;
       }
       std::swap(island, half);
+      // Watched at every accepted step, not only at the round's end: a round may be long enough for a
+      // particle to pass through a wall or partner whose law cannot stop it.
+      if (physics.method == Method::verlet)
+        island.deepest = Worst::worse(island.deepest, deepest_contact(island.state, island.pairs, island.walls));
       counters.accepted += n;
       if (d.forced) counters.forced += n;
       counters.histogram[level - settings.level_min] += n;

@@ -7,6 +7,7 @@
 #include "engine/multilevel_stepper.h"
 #include "engine/scheduler.h"
 #include "engine/step_control.h"
+#include "engine/step_watch.h"
 
 namespace dem {
 namespace {
@@ -341,6 +342,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
         take_retry(retry, physics, origin, island);
       else
         take_trial(half, physics.book_events, origin, island);
+      island.deepest = Worst::worse(island.deepest, deepest_contact(island.state, island.pairs, island.walls));
       break;
     }
     tick += ticks;

@@ -147,8 +147,11 @@ int World::round_level(std::int64_t tick) {
     const Real h = scheduler_.step_of_level(l);
     return speed * h + 0.5 * accel * h * h;
   };
-  // The skin caps the round: a round longer than the skin covers would need too many candidates.
-  while (level > level_min && 8 * reach(level) > doubling_->skin_cap) --level;
+  // The skin caps the round: a round longer than the skin covers would need too many candidates. A
+  // world of one particle has no candidate pairs, its walls are tested at every evaluation and its
+  // overlaps watched at every accepted step, so only the sync interval bounds its rounds.
+  if (state_.size() > 1)
+    while (level > level_min && 8 * reach(level) > doubling_->skin_cap) --level;
   const Real moved = skin_tracker_.max_displacement(state_.position);
   if (!(moved + 2 * reach(level) <= 0.5 * candidate_skin_)) {
     candidate_skin_ = std::max(skin_, 8 * reach(level));
@@ -255,7 +258,7 @@ void gather_island(const Islands& islands, const std::vector<std::uint32_t>& loc
   job.island.adjacency.wall_start.clear();
   job.island.ended_dissipation = job.island.exact_dissipated = job.island.wall_work = 0;
   job.island.events.clear();
-  job.island.exact_deepest = Worst{};
+  job.island.deepest = Worst{};
   job.island.unresolved = 0;
   std::vector<ExactHistoryRecord>& history = job.island.exact_history;
   history.clear();
@@ -429,8 +432,8 @@ void World::finish_round() {
     ended_dissipation_ += job.island.ended_dissipation;
     if (spectra_) spectra_->record(job.island.events);
     exact_dissipated_ += job.island.exact_dissipated;
-    if (job.island.exact_deepest.value > deepest_seen_.value) {  // the first of equals, in island order
-      deepest_seen_ = job.island.exact_deepest;
+    if (job.island.deepest.value > deepest_seen_.value) {  // the first of equals, in island order
+      deepest_seen_ = job.island.deepest;
       deepest_seen_.time = time();
     }
     wall_work_ += job.island.wall_work;

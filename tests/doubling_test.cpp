@@ -321,13 +321,16 @@ struct WallRun {
 constexpr Real wall_r = 0.01, wall_m = 0.01, wall_v = 10, wall_k = 4e6, wall_zeta = 0.1, wall_tol = 1e-6;
 constexpr Real wall_h = 10 * wall_r / wall_v;
 
-WorldConfig wall_scene(Real start_gap, Real skin) {
+WorldConfig wall_scene(Real start_gap, Real skin, bool with_bystander = false) {
   WorldConfig c;
   c.threads = 1;
   c.contacts[0].normal_stiffness = wall_k;
   c.contacts[0].normal_damping = {DampingKind::damping_ratio, wall_zeta};
   c.walls.push_back(plane(Vec3::Zero(), Vec3::UnitX()));
   c.particles.push_back(particle(Vec3(wall_r + start_gap, 0, 0), Vec3(-wall_v, 0, 0), wall_r, wall_m));
+  // A second particle at rest far from the first: a world of two has candidate pairs to keep, so the
+  // skin caps its rounds (a world of one has none).
+  if (with_bystander) c.particles.push_back(particle(Vec3(wall_r + start_gap, 1, 0), Vec3::Zero(), wall_r, wall_m));
   set_doubling(c, wall_h, -20, 0, wall_tol);
   c.broadphase.skin = skin;
   return c;
@@ -339,8 +342,8 @@ std::uint64_t steps_at(const std::vector<std::uint64_t>& histogram, int level, i
   return k < histogram.size() ? histogram[k] : 0;
 }
 
-WallRun fly_at_wall(Real start_gap, long intervals, Real skin) {
-  World world(wall_scene(start_gap, skin));
+WallRun fly_at_wall(Real start_gap, long intervals, Real skin, bool with_bystander = false) {
+  World world(wall_scene(start_gap, skin, with_bystander));
   WallRun r{{}, 0, std::numeric_limits<Real>::infinity(), 0};
   for (long s = 0; s < intervals; ++s) {
     EXPECT_EQ(world.advance_sync_interval(), StepStatus::ok);
@@ -354,17 +357,23 @@ WallRun fly_at_wall(Real start_gap, long intervals, Real skin) {
 }
 
 TEST(Doubling, ParticleFlyingAtAWallStaysAtLevelMaxExceptNearItAndBouncesWithTheOracleRestitution) {
-  // The skin caps the level: a round may only be as long as keeps 8 (|v| h + |a| h^2 / 2) within the
-  // candidate skin, at least 2 R_max (world_doubling.cpp, round_level). With the default skin
-  // (0.1 R) that is v h <= R / 4, i.e. level <= -6 here; no step reaches level_max.
+  // In a world of more than one particle the skin caps the level: a round may only be as long as
+  // keeps 8 (|v| h + |a| h^2 / 2) within the candidate skin, at least 2 R_max (world_doubling.cpp,
+  // round_level). With the default skin (0.1 R) that is v h <= R / 4, i.e. level <= -6 here; no step
+  // reaches level_max.
   {
-    const WallRun capped = fly_at_wall(1000 * wall_r, 50, -1);
+    const WallRun capped = fly_at_wall(1000 * wall_r, 50, -1, true);
     std::uint64_t below = 0;
     for (int level = -20; level <= -6; ++level) below += steps_at(capped.histogram, level, -20);
     EXPECT_GT(below, 0u);
     for (int level = -5; level <= 0; ++level) EXPECT_EQ(steps_at(capped.histogram, level, -20), 0u) << "level " << level;
   }
-  // So the test sets the skin to 100 R >= 8 v h_max = 80 R.
+  // Alone, the particle's rounds are not capped: with the default skin it reaches level_max.
+  {
+    const WallRun alone = fly_at_wall(1000 * wall_r, 50, -1);
+    EXPECT_GT(steps_at(alone.histogram, 0, -20), 0u);
+  }
+  // Below, the test sets the skin to 100 R >= 8 v h_max = 80 R, which would not cap it either.
   const Real e_oracle = oracle_from_ratio(wall_zeta, Separation::force_zero).restitution;
   const long in_steps = 5000;  // level_max steps to the wall, and as many after
   for (Real phase : {0.3, 0.5371, 0.8123}) {  // not dyadic: different offsets on the fine grid
