@@ -17,6 +17,7 @@ import csv
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -39,13 +40,17 @@ def run(dem, out, settings):
             "--set", "output.trajectories=true", "--set", "output.snapshot_interval=0"]
     for key, value in settings.items():
         args += ["--set", f"{key}={value}"]
+    shutil.rmtree(out, ignore_errors=True)  # a failed run must not leave an earlier run's rows behind
     done = subprocess.run(args, capture_output=True, text=True)
     rows = []
     rows_path = os.path.join(out, "trajectories.csv")
     if os.path.exists(rows_path):
         with open(rows_path) as f:
             for r in csv.DictReader(f):
-                rows.append({k: float(v) for k, v in r.items()})
+                try:
+                    rows.append({k: float(v) for k, v in r.items()})
+                except (TypeError, ValueError):  # a row cut short where the run stopped
+                    break
     if done.returncode != 0:
         why = done.stderr.strip().splitlines()[-1] if done.stderr.strip() else f"exit {done.returncode}"
         return {"summary": None, "rows": rows, "failure": why}, why
@@ -108,7 +113,9 @@ def main():
     reference, error = run(args.dem, os.path.join(work, "reference"), {"integrator.dt": 1e-5, **rows})
     if error is not None:
         sys.exit(f"reference run failed: {error}")
-    check, _ = run(args.dem, os.path.join(work, "reference_check"), {"integrator.dt": 2e-5, **rows})
+    check, error = run(args.dem, os.path.join(work, "reference_check"), {"integrator.dt": 2e-5, **rows})
+    if error is not None:
+        sys.exit(f"reference check run failed: {error}")
     reference_error, _ = trajectory_error(check["rows"], reference["rows"])
 
     settings = []
@@ -187,8 +194,8 @@ def equal_accuracy(results):
     # ramp): the step that would match a doubling run's error, from the two finer fixed steps.
     fine = find(results, "verlet", "dt = 0.001")
     loose = find(results, "verlet", f"tol = {TOLERANCES[0]:g}")
-    if fine is not None and loose is not None:
-        order = math.log(target / fine["error"]) / math.log(10)
+    if fine is not None and loose is not None and 0 < fine["error"] < target and loose["error"] > 0:
+        order = math.log(target / fine["error"]) / math.log(0.01 / 0.001)
         dt = 0.001 * (loose["error"] / fine["error"]) ** (1 / order)
         out.append(f"The other way round: the fixed step's error falls as dt^{order:.2f} between dt = 0.01 and 0.001, "
                    f"so matching tol = {TOLERANCES[0]:g}'s {loose['error']:.3g} m would take dt = {dt:.2g}, about "

@@ -43,7 +43,9 @@ std::uint64_t step(IslandState& s, const broadphase::CandidatePairs& candidates,
     // The trial's own wall-contact history stands in for the workspace's while it steps.
     std::swap(scratch.exact.history, s.exact_history);
     s.exact_dissipated += exact_step(st, scratch.walls, *physics.materials, candidates, settings, t, h, scratch.exact);
-    s.deepest = Worst::worse(s.deepest, scratch.exact.deepest);
+    Worst inside = scratch.exact.deepest;
+    inside.time = t + h;
+    s.deepest = Worst::worse(s.deepest, inside);
     std::swap(scratch.exact.history, s.exact_history);
     s.wall_work += scratch.exact.wall_work - wall_work;
     s.unresolved += scratch.exact.unresolved - unresolved;
@@ -264,8 +266,11 @@ int advance_island(IslandState& island, const broadphase::CandidatePairs& candid
       std::swap(island, half);
       // Watched at every accepted step, not only at the round's end: a round may be long enough for a
       // particle to pass through a wall or partner whose law cannot stop it.
-      if (physics.method == Method::verlet)
-        island.deepest = Worst::worse(island.deepest, deepest_contact(island.state, island.pairs, island.walls));
+      if (physics.method == Method::verlet) {
+        Worst at_end = deepest_contact(island.state, island.pairs, island.walls);
+        at_end.time = t + h;
+        island.deepest = Worst::worse(island.deepest, at_end);
+      }
       counters.accepted += n;
       if (d.forced) counters.forced += n;
       counters.histogram[level - settings.level_min] += n;

@@ -36,7 +36,7 @@ struct IslandState {
   std::vector<Real> excursion;  // per member: farthest distance from its start of the round [m]
   Real ended_dissipation = 0;   // by contacts that ended (Verlet) [J]
   Real exact_dissipated = 0;    // by the exact stepper's flows [J]
-  Worst deepest;  // the deepest overlap of the accepted steps: inside them (exact), at their ends (Verlet)
+  Worst deepest;  // the deepest overlap of the accepted steps: inside them (exact), at their ends (Verlet), timed
   Real wall_work = 0;           // by moving walls on the island [J]
   // Contacts that ended (IslandPhysics::book_events), for the World's spectra; with a level per
   // particle (particle_level_doubling.h), those of the accepted trials.

@@ -342,7 +342,9 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
         take_retry(retry, physics, origin, island);
       else
         take_trial(half, physics.book_events, origin, island);
-      island.deepest = Worst::worse(island.deepest, deepest_contact(island.state, island.pairs, island.walls));
+      Worst at_end = deepest_contact(island.state, island.pairs, island.walls);
+      at_end.time = t + chunk;
+      island.deepest = Worst::worse(island.deepest, at_end);
       break;
     }
     tick += ticks;

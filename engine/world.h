@@ -172,7 +172,8 @@ class World {
   /// The deepest pair or wall overlap now, as a fraction of the smaller radius involved.
   Culprit deepest_overlap() const;
   /// The deepest overlap since the start (or the resume), with the time it was seen: after every
-  /// step under the fixed control, at sync times under doubling.
+  /// step under the fixed control; under doubling at every round's end and after every accepted step
+  /// (every accepted chunk with a level per particle) inside the islands.
   const Culprit& deepest_overlap_seen() const { return deepest_seen_; }
   /// The largest h |v| / R after any velocity Verlet step of the fixed control since the start: how
   /// many radii a particle's next step would carry it. Beyond 1 a contact can be stepped over (the

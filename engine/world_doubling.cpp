@@ -432,10 +432,7 @@ void World::finish_round() {
     ended_dissipation_ += job.island.ended_dissipation;
     if (spectra_) spectra_->record(job.island.events);
     exact_dissipated_ += job.island.exact_dissipated;
-    if (job.island.deepest.value > deepest_seen_.value) {  // the first of equals, in island order
-      deepest_seen_ = job.island.deepest;
-      deepest_seen_.time = time();
-    }
+    deepest_seen_ = Culprit::worse(deepest_seen_, job.island.deepest);  // stamped with its step's end
     wall_work_ += job.island.wall_work;
     counters_.unresolved_contacts += job.island.unresolved;
   }

@@ -173,7 +173,9 @@ ParticleId World::add_particle(const ParticleConfig& p) {
   }
   // Skin: a negative configured skin means 10% of the smallest radius (constructor).
   if (config_.broadphase.skin < 0) skin_ = skin_ > 0 ? std::min(skin_, 0.1 * p.radius) : 0.1 * p.radius;
-  candidate_skin_ = std::max(candidate_skin_, skin_);
+  // Under doubling the next round widens the skin again as far as its reach needs (round_level): a
+  // skin widened for a lone particle's uncapped rounds would otherwise outlive them.
+  candidate_skin_ = doubling_ ? skin_ : std::max(candidate_skin_, skin_);
   if (doubling_) {
     const IntegratorConfig& c = config_.integrator;
     DoublingWork& d = *doubling_;

@@ -271,6 +271,31 @@ TEST(Doubling, SeedSlopeResolvesTheFrictionRampAtTheStartEvenAtALooseTolerance) 
   EXPECT_LT(std::abs(spin - reference), 1e-3 * reference);
 }
 
+// Which particles start fine (docs/physics.md 6.6): those touching a partner or a wall at the start,
+// not the free ones, under both one level per island and a level per particle.
+TEST(Doubling, ParticlesTouchingAtTheStartBeginAtLevelMinAndFreeOnesAtLevelZero) {
+  for (bool particle_levels : {false, true}) {
+    SCOPED_TRACE(particle_levels ? "levels per particle" : "one level per island");
+    WorldConfig c;
+    c.threads = 1;
+    c.contacts[0].normal_stiffness = 1e4;
+    c.walls.push_back(plane(Vec3::Zero(), Vec3::UnitZ()));
+    const Real r = 0.01;
+    c.particles.push_back(particle(Vec3(0, 0, 0.5), Vec3::Zero(), r, 0.01));             // touching the next
+    c.particles.push_back(particle(Vec3(1.998 * r, 0, 0.5), Vec3::Zero(), r, 0.01));     // touching the last
+    c.particles.push_back(particle(Vec3(1, 0, 0.999 * r), Vec3::Zero(), r, 0.01));       // on the wall
+    c.particles.push_back(particle(Vec3(2, 0, 0.5), Vec3(1, 0, 0), r, 0.01));            // free
+    set_doubling(c, 1e-4, -6, 3, 1e-2);
+    c.integrator.particle_levels = particle_levels;
+    World world(c);
+    const State& s = world.state();
+    for (std::size_t q = 0; q < s.size(); ++q) {
+      SCOPED_TRACE(::testing::Message() << "particle " << s.id[q]);
+      EXPECT_EQ(s.level[q], s.id[q] == 3 ? 0 : -6);
+    }
+  }
+}
+
 TEST(Doubling, ClusterErrorFallsAsToleranceTightens) { expect_error_falls(cluster_sweep()); }
 
 TEST(Doubling, ClusterErrorIsProportionalToTolerance) {
@@ -373,12 +398,22 @@ TEST(Doubling, ParticleFlyingAtAWallStaysAtLevelMaxExceptNearItAndBouncesWithThe
     const WallRun alone = fly_at_wall(1000 * wall_r, 50, -1);
     EXPECT_GT(steps_at(alone.histogram, 0, -20), 0u);
   }
-  // Below, the test sets the skin to 100 R >= 8 v h_max = 80 R, which would not cap it either.
+  // A lone particle's long rounds widen the candidate skin to cover them; once a second particle
+  // joins, rounds are capped again and the skin narrows to what they cover, at most 2 R_max.
+  {
+    World world(wall_scene(1000 * wall_r, -1));
+    run_intervals(world, 5);
+    EXPECT_GT(world.candidate_skin(), 10 * wall_r);
+    world.add_particle(particle(Vec3(0.5, 1, 0), Vec3::Zero(), wall_r, wall_m));
+    run_intervals(world, 1);
+    EXPECT_LE(world.candidate_skin(), 2 * wall_r * (1 + 1e-12));
+  }
+  // So the bounce below runs alone with the default skin, its rounds as long as the sync interval.
   const Real e_oracle = oracle_from_ratio(wall_zeta, Separation::force_zero).restitution;
   const long in_steps = 5000;  // level_max steps to the wall, and as many after
   for (Real phase : {0.3, 0.5371, 0.8123}) {  // not dyadic: different offsets on the fine grid
     SCOPED_TRACE(::testing::Message() << "phase " << phase);
-    const WallRun r = fly_at_wall((in_steps + phase) * wall_v * wall_h, 2 * in_steps, 100 * wall_r);
+    const WallRun r = fly_at_wall((in_steps + phase) * wall_v * wall_h, 2 * in_steps, -1);
     ASSERT_EQ(r.histogram.size(), 21u);  // level_max was reached
     std::uint64_t total = 0, fine = 0;
     Real allowance = 0;

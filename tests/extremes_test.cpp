@@ -410,7 +410,7 @@ TEST(Extremes, ImpactsWithOverlapsUpToOneAndAHalfRadiiBounceOnTheirSideAndAreFla
 TEST(Extremes, ImpactsWhoseOverlapWouldExceedTheDiameterAreFlaggedByEveryStepper) {
   // delta_max = 2.5 R: the linear law cannot stop the particle before it is wholly behind the wall
   // (overlap 2R) or the centres cross. docs/physics.md 9.2: flag the non-physical overlap, never pass
-  // through. Velocity Verlet's overlap is watched after every step (fixed) or round (doubling); the
+  // through. Velocity Verlet's overlap is watched after every step (fixed) or accepted step (doubling); the
   // exact stepper, where a whole impact may fit in one step (omega0 dt up to 10), reports the
   // deepest overlap inside the step (normal_flow.h, OverlapWatch). So every such impact is flagged,
   // at the law's own depth, before it can pass through; `dem run` stops there and keeps the last good

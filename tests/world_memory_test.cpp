@@ -41,14 +41,15 @@ TEST(WorldMemory, DenseBedStaysWithinItsBytesPerParticle) {
   EXPECT_LT(part(*world, "state") / n, 160);
 }
 
-// The same bed under step doubling, where the bed is one island. One level per island copies it into
+// The same bed under step doubling, where the bed is one island, on 1 thread (each thread that runs an
+// island keeps its own scratch, so which threads grow one is up to the scheduler). One level per island copies it into
 // the island (state, candidates, contacts) and each trial copies the island again. Levels per particle
 // keep two trial groups, each with a state, the state its contacts are evaluated in, its contacts split
 // by level, each contact's impulse, each particle's step and the steps a retry replays; and a retry's
 // two smaller groups.
 std::size_t doubling_bytes_per_particle(bool particle_levels) {
   const std::unique_ptr<World> world =
-      World::load(scene("dense_bed.toml"), {"run.threads=2", "integrator.control=doubling", "integrator.tolerance=1e-2",
+      World::load(scene("dense_bed.toml"), {"run.threads=1", "integrator.control=doubling", "integrator.tolerance=1e-2",
                                             std::string("integrator.particle_levels=") + (particle_levels ? "true" : "false")});
   EXPECT_EQ(world->run_until(0.0003), StepStatus::ok);
   const double n = static_cast<double>(world->particle_count());
@@ -63,8 +64,8 @@ TEST(WorldMemory, DenseBedUnderDoublingStaysWithinItsBytesPerParticle) {
   const std::size_t levels = doubling_bytes_per_particle(true);
   ::testing::Test::RecordProperty("bytes_per_particle_one_level_per_island", std::to_string(island));
   ::testing::Test::RecordProperty("bytes_per_particle_levels_per_particle", std::to_string(levels));
-  EXPECT_LT(island, 3620u) << "3,019 reached, plus 20%";
-  EXPECT_LT(levels, 9780u) << "8,149 reached, plus 20%";
+  EXPECT_LT(island, 3790u) << "3,157 reached, plus 20%";
+  EXPECT_LT(levels, 9780u) << "8,153 reached, plus 20%";
 }
 
 TEST(WorldMemory, CountsCapacityNotSize) {
