@@ -189,6 +189,12 @@ bool wall_may_close(const State& s, std::size_t a, const Walls& walls, std::size
          walls.touching_count(w, s.position[a], s.radius[a]);
 }
 
+void watch_deepest_contact(IslandState& island, Real time) {
+  Worst at = deepest_contact(island.state, island.pairs, island.walls);
+  at.time = time;
+  island.deepest = Worst::worse(island.deepest, at);
+}
+
 int anticipation_level(const IslandState& island, const broadphase::CandidatePairs& candidates, const Walls& walls,
                        const Vec3& gravity, Real dt_base, int level, int contact_level) {
   const State& s = island.state;
@@ -264,13 +270,9 @@ int advance_island(IslandState& island, const broadphase::CandidatePairs& candid
         ++counters.richardson;
       }
       std::swap(island, half);
-      // Watched at every accepted step, not only at the round's end: a round may be long enough for a
-      // particle to pass through a wall or partner whose law cannot stop it.
-      if (physics.method == Method::verlet) {
-        Worst at_end = deepest_contact(island.state, island.pairs, island.walls);
-        at_end.time = t + h;
-        island.deepest = Worst::worse(island.deepest, at_end);
-      }
+      // A round may be long enough for a particle to pass through a wall or partner whose law
+      // cannot stop it (the exact stepper watches inside its steps).
+      if (physics.method == Method::verlet) watch_deepest_contact(island, t + h);
       counters.accepted += n;
       if (d.forced) counters.forced += n;
       counters.histogram[level - settings.level_min] += n;

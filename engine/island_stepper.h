@@ -111,6 +111,10 @@ bool pair_may_close(const State& s, std::size_t a, std::size_t b, const Vec3& gr
 /// wall's velocity there) a feature of wall w that it does not touch now. Walls at the state's time.
 bool wall_may_close(const State& s, std::size_t a, const Walls& walls, std::size_t w, const Vec3& gravity, Real h);
 
+/// Merges the deepest contact of the island as it stands, at `time` [s] (an accepted step's end), into
+/// island.deepest: the overlap audit sees inside a round, not only at its end.
+void watch_deepest_contact(IslandState& island, Real time);
+
 /// Largest level whose step keeps every approaching pair and wall of the island at least two steps
 /// away from touching (|v_rel| h + |a_rel| h^2 / 2 <= gap / 2), or `contact_level`, whichever is
 /// larger; never above `level`. Walls must be at the island's time.

@@ -7,7 +7,6 @@
 #include "engine/multilevel_stepper.h"
 #include "engine/scheduler.h"
 #include "engine/step_control.h"
-#include "engine/step_watch.h"
 
 namespace dem {
 namespace {
@@ -342,9 +341,7 @@ void advance_island_per_particle(IslandState& island, const broadphase::Candidat
         take_retry(retry, physics, origin, island);
       else
         take_trial(half, physics.book_events, origin, island);
-      Worst at_end = deepest_contact(island.state, island.pairs, island.walls);
-      at_end.time = t + chunk;
-      island.deepest = Worst::worse(island.deepest, at_end);
+      watch_deepest_contact(island, t + chunk);
       break;
     }
     tick += ticks;

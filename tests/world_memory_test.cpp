@@ -13,6 +13,17 @@ namespace {
 
 std::string scene(const std::string& name) { return std::string(DEM_SOURCE_DIR) + "/scenes/" + name; }
 
+// Prints the parts per particle and returns their sum.
+std::size_t print_parts(const World& w) {
+  const double n = static_cast<double>(w.particle_count());
+  std::size_t sum = 0;
+  for (const MemoryPart& p : w.memory_breakdown()) {
+    std::cout << "  " << p.name << ": " << p.bytes / n << " B per particle\n";
+    sum += p.bytes;
+  }
+  return sum;
+}
+
 std::size_t part(const World& w, const std::string& name) {
   for (const MemoryPart& p : w.memory_breakdown())
     if (p.name == name) return p.bytes;
@@ -28,12 +39,7 @@ TEST(WorldMemory, DenseBedStaysWithinItsBytesPerParticle) {
   const std::unique_ptr<World> world = World::load(scene("dense_bed.toml"), {"run.threads=2"});
   ASSERT_EQ(world->run_until(0.0003), StepStatus::ok);
   const double n = static_cast<double>(world->particle_count());
-  std::size_t sum = 0;
-  for (const MemoryPart& p : world->memory_breakdown()) {
-    std::cout << "  " << p.name << ": " << p.bytes / n << " B per particle\n";
-    sum += p.bytes;
-  }
-  EXPECT_EQ(world->memory_bytes(), sum);
+  EXPECT_EQ(world->memory_bytes(), print_parts(*world));
   EXPECT_GT(world->pair_contacts().size(), world->particle_count()) << "the bed is dense";
   EXPECT_LT(world->memory_bytes() / n, 1240) << "1,030 reached, plus 20%";
   EXPECT_LT(part(*world, "persistent pair list") / n, 625) << "520 reached, plus 20%";
@@ -41,22 +47,20 @@ TEST(WorldMemory, DenseBedStaysWithinItsBytesPerParticle) {
   EXPECT_LT(part(*world, "state") / n, 160);
 }
 
-// The same bed under step doubling, where the bed is one island, on 1 thread (each thread that runs an
-// island keeps its own scratch, so which threads grow one is up to the scheduler). One level per island copies it into
-// the island (state, candidates, contacts) and each trial copies the island again. Levels per particle
-// keep two trial groups, each with a state, the state its contacts are evaluated in, its contacts split
-// by level, each contact's impulse, each particle's step and the steps a retry replays; and a retry's
-// two smaller groups.
+// The same bed under step doubling, where the bed is one island, on 1 thread (each thread that runs
+// an island keeps its own scratch, so which threads grow one is up to the scheduler). One level per
+// island copies the bed into the island (state, candidates, contacts) and each trial copies the
+// island again. Levels per particle keep two trial groups, each with a state, the state its contacts
+// are evaluated in, its contacts split by level, each contact's impulse, each particle's step and the
+// steps a retry replays; and a retry's two smaller groups.
 std::size_t doubling_bytes_per_particle(bool particle_levels) {
   const std::unique_ptr<World> world =
       World::load(scene("dense_bed.toml"), {"run.threads=1", "integrator.control=doubling", "integrator.tolerance=1e-2",
                                             std::string("integrator.particle_levels=") + (particle_levels ? "true" : "false")});
   EXPECT_EQ(world->run_until(0.0003), StepStatus::ok);
-  const double n = static_cast<double>(world->particle_count());
   std::cout << (particle_levels ? "levels per particle" : "one level per island") << ":\n";
-  for (const MemoryPart& p : world->memory_breakdown())
-    std::cout << "  " << p.name << ": " << p.bytes / n << " B per particle\n";
-  return static_cast<std::size_t>(world->memory_bytes() / n);
+  print_parts(*world);
+  return world->memory_bytes() / world->particle_count();
 }
 
 TEST(WorldMemory, DenseBedUnderDoublingStaysWithinItsBytesPerParticle) {
