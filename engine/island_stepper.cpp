@@ -189,6 +189,28 @@ bool wall_may_close(const State& s, std::size_t a, const Walls& walls, std::size
          walls.touching_count(w, s.position[a], s.radius[a]);
 }
 
+ClosingWalls::ClosingWalls(const State& s, const Walls& walls, const Vec3& gravity, Real h)
+    : s_(s), walls_(walls), gravity_(gravity), h_(h) {
+  if (s.size() == 0) return;
+  // The particles' centres lie within `spread` of `middle`, so a wall turning at omega about c moves
+  // its material at any of them by at most |v| + |omega| (|middle - c| + spread).
+  Vec3 lo = s.position[0], hi = s.position[0];
+  for (const Vec3& x : s.position) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+  const Vec3 middle = 0.5 * (lo + hi);
+  const Real spread = 0.5 * (hi - lo).norm();
+  for (std::size_t w = 0; w < walls.count(); ++w) {
+    if (!walls.filtered(w)) continue;  // may_touch is true for it
+    const Vec3& c = walls.rotation_center(w);
+    const Real speed = walls.velocity_at(w, c).norm() + walls.angular_velocity(w).norm() * ((middle - c).norm() + spread);
+    wall_speed_ = std::max(wall_speed_, speed);
+  }
+}
+
+Real ClosingWalls::closing_bound(std::size_t a) const {
+  return (1 + 1e-9) *
+         ((s_.velocity[a].norm() + wall_speed_) * h_ + 0.5 * acceleration_of(s_, a, gravity_).norm() * h_ * h_);
+}
+
 void watch_deepest_contact(IslandState& island, Real time) {
   Worst at = deepest_contact(island.state, island.pairs, island.walls);
   at.time = time;
@@ -200,11 +222,11 @@ int anticipation_level(const IslandState& island, const broadphase::CandidatePai
   const State& s = island.state;
   auto clear_at = [&](int l) {
     const Real h = std::ldexp(dt_base, l);
+    const ClosingWalls closing(s, walls, gravity, h);
     for (std::size_t a = 0; a < s.size(); ++a) {
       for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k)
         if (pair_may_close(s, a, candidates.partner[k], gravity, h)) return false;
-      for (std::size_t w = 0; w < walls.count(); ++w)
-        if (wall_may_close(s, a, walls, w, gravity, h)) return false;
+      if (!closing.for_each(a, [](std::size_t) { return false; })) return false;
     }
     return true;
   };

@@ -9,6 +9,7 @@
 // springs, modes), which the exact stepper reads by particle id.
 // Reads only its own copy; the World gathers islands from its state and scatters them back, so
 // islands are independent and may run in any order on any thread.
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -110,6 +111,40 @@ bool pair_may_close(const State& s, std::size_t a, std::size_t b, const Vec3& gr
 /// True when movable particle a of `s` may reach within h (the same closing distance, against the
 /// wall's velocity there) a feature of wall w that it does not touch now. Walls at the state's time.
 bool wall_may_close(const State& s, std::size_t a, const Walls& walls, std::size_t w, const Vec3& gravity, Real h);
+
+/// The walls each particle of `s` may close on within h (wall_may_close), the same answers for fewer
+/// tests: a filtered wall (Walls::filtered) farther from a particle than twice the most it can close
+/// on any such wall within h (its own speed plus that of the fastest wall point at any particle's
+/// centre, its acceleration) is passed over without its own closing speed.
+class ClosingWalls {
+ public:
+  /// Walls at the state's time.
+  ClosingWalls(const State& s, const Walls& walls, const Vec3& gravity, Real h);
+  /// Calls visit(w) for the walls w that particle a may close on, in ascending order, while it returns
+  /// true; returns false when it stopped.
+  template <class Visit>
+  bool for_each(std::size_t a, Visit&& visit) const {
+    if (s_.inv_mass[a] == 0) return true;
+    const Real reach = 2 * closing_bound(a);
+    const bool bounded = std::isfinite(reach);
+    for (std::size_t w = 0; w < walls_.count(); ++w)
+      if ((!bounded || walls_.may_touch(w, s_.position[a], s_.radius[a], reach)) &&
+          wall_may_close(s_, a, walls_, w, gravity_, h_) && !visit(w))
+        return false;
+    return true;
+  }
+
+ private:
+  /// At least wall_may_close's closing distance for particle a against any filtered wall [m] (the
+  /// factor covers rounding).
+  Real closing_bound(std::size_t a) const;
+
+  const State& s_;
+  const Walls& walls_;
+  Vec3 gravity_;
+  Real h_;
+  Real wall_speed_ = 0;  // at least the speed of a filtered wall's material at any particle's centre [m/s]
+};
 
 /// Merges the deepest contact of the island as it stands, at `time` [s] (an accepted step's end), into
 /// island.deepest: the overlap audit sees inside a round, not only at its end.

@@ -3,13 +3,14 @@
 // and planes, boxes and cylinders at rest or translating; a list holds exactly the walls within the
 // margin, for up to 64 walls and for more; a mill and a box of particles run to the same state with
 // the lists as without them, levels per particle included; lists selected for some particles are
-// their rows.
+// their rows; collision anticipation finds the walls that testing each would.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <random>
 
+#include "engine/island_stepper.h"
 #include "engine/scene_loader.h"
 #include "engine/wall_lists.h"
 #include "engine/world.h"
@@ -39,10 +40,10 @@ bool listed(const WallLists& lists, std::size_t p, std::size_t w) {
   return false;
 }
 
-TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
-  // Two lifter-like bars turning with a ramp about the origin (one of them also translating), a
-  // plane below, a container box, a translating solid block, a translating cylinder, a shell and an
-  // end plane turning in place (a mill's: filtered) and an eccentric turning drum (never filtered).
+/// Two lifter-like bars turning with a ramp about the origin (one of them also translating), a
+/// plane below, a container box, a translating solid block, a translating cylinder, a shell and an
+/// end plane turning in place (a mill's: filtered) and, last, an eccentric turning drum (never filtered).
+std::vector<WallConfig> varied_walls() {
   std::vector<WallConfig> config;
   config.push_back(bar(Vec3(0.1, 0, 0), 0.01, 0.006, 0.05));
   config.back().angular_velocity = Vec3(0, 0, 6);
@@ -92,6 +93,11 @@ TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
   eccentric.rotation_center = Vec3::Zero();
   eccentric.use_rotation_center = true;
   config.push_back(eccentric);
+  return config;
+}
+
+TEST(WallLists, NoWallLeftOutTouchesWhileTheListsAreValid) {
+  const std::vector<WallConfig> config = varied_walls();
   const std::size_t turning = config.size() - 1;
   Walls walls(config, one_material());
   for (std::size_t w = 0; w < turning; ++w)
@@ -292,6 +298,53 @@ TEST(WallLists, ParticlesFallingInABoxRunToTheSameStateWithAndWithoutThem) {
     }
     EXPECT_EQ(hash[0], hash[1]) << "the lists must only skip tests that could not succeed";
     EXPECT_GT(wall_contacts[1], 10u) << "the particles must have reached the box's faces";
+  }
+}
+
+// Collision anticipation passes over the walls a particle is too far from to reach within a step
+// (ClosingWalls, island_stepper.h); it must find exactly the walls that testing each with
+// wall_may_close finds: particles moving and accelerating at random among turning, ramping and
+// translating walls, at steps from 10 us to 10 ms.
+TEST(WallLists, ClosingWallsFindsTheWallsThatTestingEachFinds) {
+  Walls walls(varied_walls(), one_material());
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<Real> u(-1, 1);
+  State s;
+  for (int p = 0; p < 1000; ++p) {
+    s.add(Vec3(0.13 * u(rng), 0.13 * u(rng), 0.02 * u(rng)), Vec3(u(rng), u(rng), u(rng)), Vec3::Zero(),
+          0.004 + 0.002 * u(rng), 1, 1, 0);
+    s.force.back() = 20 * Vec3(u(rng), u(rng), u(rng));
+  }
+  s.add(Vec3(0.1, 0.02, 0), Vec3(1, 0, 0), Vec3::Zero(), 0.004, 0, 0, 0);  // immovable: closes on nothing
+  const Vec3 gravity(0, -9.81, 0);
+  int closing = 0, far = 0;
+  for (Real t : {0.0, 0.1, 0.7})
+    for (Real h : {1e-5, 1e-4, 1e-3, 1e-2}) {
+      walls.set_time(t);
+      const ClosingWalls found(s, walls, gravity, h);
+      for (std::size_t a = 0; a < s.size(); ++a) {
+        std::vector<std::size_t> expected, got;
+        for (std::size_t w = 0; w < walls.count(); ++w)
+          if (wall_may_close(s, a, walls, w, gravity, h)) expected.push_back(w);
+        EXPECT_TRUE(found.for_each(a, [&](std::size_t w) {
+          got.push_back(w);
+          return true;
+        }));
+        ASSERT_EQ(got, expected) << "t = " << t << " s, h = " << h << " s, particle " << a;
+        closing += static_cast<int>(expected.size());
+        for (std::size_t w = 0; w < walls.count(); ++w)
+          far += walls.filtered(w) && !walls.may_touch(w, s.position[a], s.radius[a], 0.01);
+      }
+    }
+  EXPECT_GT(closing, 500) << "the particles must close on some walls for the comparison to mean anything";
+  EXPECT_GT(far, 10000) << "and most must be far from most walls, which the filter passes over";
+  // Stopping: for_each reports that visit stopped it.
+  walls.set_time(0.1);
+  const ClosingWalls found(s, walls, gravity, 1e-2);
+  for (std::size_t a = 0; a < s.size(); ++a) {
+    bool any = false;
+    for (std::size_t w = 0; w < walls.count(); ++w) any = any || wall_may_close(s, a, walls, w, gravity, 1e-2);
+    EXPECT_EQ(found.for_each(a, [](std::size_t) { return false; }), !any);
   }
 }
 
