@@ -284,6 +284,8 @@ void MultilevelGroup::evaluate_level(std::size_t c, Real h) {
     WallLists& level_lists = wall_lists_[c];
     if (!level_lists.valid(sub, *walls_)) level_lists.build(sub, *walls_, physics_.wall_margin);
     lists = &level_lists;
+    // No member near a wall and no wall contact to end: nothing to update, push or book.
+    if (lists->listed_particles().empty() && wall_contacts_[c].size() == 0) return;
   }
   ended_dissipation_ += update_wall_contacts(sub, *walls_, *physics_.materials, wall_contacts_[c], workspace_,
                                              wall_start_[c], lists, recording_ ? &ended_log_ : nullptr);
@@ -555,9 +557,10 @@ void MultilevelGroup::advance(std::int64_t ticks) {
   impulse_of_.resize(neighbours_.size());
   for (std::size_t c = 0; c < neighbours_.size(); ++c) impulse_of_[c].assign(neighbours_[c].size(), no_impulse);
   // Every particle starts a step now, from the forces its contacts hold (the last evaluation, here).
-  load_.assign(n, TickLoad{});
-  loaded_.assign(n, 0);
-  loaded_list_.clear();
+  // Loads are zero outside an advance (end_steps clears them), so only new slots need setting.
+  load_.resize(n);
+  loaded_.resize(n);
+  DEM_ASSERT(loaded_list_.empty());
   for (std::size_t c = 0; c < neighbours_.size(); ++c) add_level_loads(c, false, 0.5 * step_of_index(c), duration);
   step_.resize(n);
   for (std::size_t p = 0; p < n; ++p) begin_step(static_cast<ParticleIndex>(p), 0);
