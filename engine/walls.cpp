@@ -70,6 +70,23 @@ Walls::Walls(const std::vector<WallConfig>& walls, const MaterialTable& material
   if (config_.size() > max_walls)
     throw std::invalid_argument("at most " + std::to_string(max_walls) + " walls fit a contact key, not " +
                                 std::to_string(config_.size()));
+  for (std::size_t w = 0; w < config_.size(); ++w) {
+    const WallConfig& c = config_[w];
+    const WallConfig* before = w > 0 ? &config_[w - 1] : nullptr;
+    turns_with_previous_.push_back(before && before->angular_velocity == c.angular_velocity &&
+                                   before->ramp_time == c.ramp_time);
+    travel_rate_.push_back(c.velocity.norm() + c.angular_velocity.norm() * prism_[w].reach);
+    // A plane or cylinder turning in place (turns_in_place): its posed normal or axis is the configured
+    // one up to the rounding of the rotation matrix, which moves the computed surface by a few ulps of
+    // the coordinates; one nanometre per metre of its extent bounds that with room to spare (at worst,
+    // with a margin below it, the lists are rebuilt at every step: slower, never wrong).
+    Real rounding = 0;
+    if (c.kind != WallKind::prism && c.angular_velocity.norm() != 0) {
+      const Real length = std::isfinite(c.length) ? c.length : 0;
+      rounding = 1e-9 * (1 + c.point.norm() + c.rotation_center.norm() + c.radius + length);
+    }
+    travel_rounding_.push_back(rounding);
+  }
   pose_.resize(config_.size());
   set_time(0);
 }
@@ -128,15 +145,16 @@ const std::vector<MeshContact>& Walls::mesh_contacts(std::size_t w, const Vec3& 
 
 void Walls::set_time(Real t) {
   time_ = t;
+  Real s = 0, rate = 0;  // the ramp's distance factor and rate, shared by walls that turn together
   for (std::size_t w = 0; w < config_.size(); ++w) {
     const WallConfig& c = config_[w];
     Pose& p = pose_[w];
-    const Real s = ramp_distance(t, c.ramp_time);
     // A mill's walls turn together: a wall with the previous one's spin and ramp takes its rotation.
-    const WallConfig* before = w > 0 ? &config_[w - 1] : nullptr;
-    if (before && before->angular_velocity == c.angular_velocity && before->ramp_time == c.ramp_time) {
+    if (turns_with_previous_[w]) {
       p.rotation = pose_[w - 1].rotation;
     } else {
+      s = ramp_distance(t, c.ramp_time);
+      rate = ramp_rate(t, c.ramp_time);
       const Real angle = c.angular_velocity.norm() * s;
       p.rotation = angle != 0 ? Eigen::AngleAxisd(angle, c.angular_velocity.normalized()).toRotationMatrix()
                              : Eigen::Matrix3d::Identity();
@@ -144,8 +162,8 @@ void Walls::set_time(Real t) {
     p.center = c.rotation_center + c.velocity * s;
     p.point = p.center + p.rotation * (c.point - c.rotation_center);
     p.direction = p.rotation * (c.kind == WallKind::plane ? c.normal : c.axis);
-    p.velocity = ramp_rate(t, c.ramp_time) * c.velocity;
-    p.angular_velocity = ramp_rate(t, c.ramp_time) * c.angular_velocity;
+    p.velocity = rate * c.velocity;
+    p.angular_velocity = rate * c.angular_velocity;
   }
 }
 
@@ -317,16 +335,7 @@ Real Walls::max_travel(std::size_t w, Real t0, Real t1) const {
   // travels with its centre.
   const WallConfig& c = config_[w];
   const Real distance = ramp_distance(t1, c.ramp_time) - ramp_distance(t0, c.ramp_time);
-  Real travel = (c.velocity.norm() + c.angular_velocity.norm() * prism_[w].reach) * std::abs(distance);
-  // A plane or cylinder turning in place (turns_in_place): its posed normal or axis is the configured
-  // one up to the rounding of the rotation matrix, which moves the computed surface by a few ulps of
-  // the coordinates; one nanometre per metre of its extent bounds that with room to spare (at worst,
-  // with a margin below it, the lists are rebuilt at every step: slower, never wrong).
-  if (c.kind != WallKind::prism && c.angular_velocity.norm() != 0) {
-    const Real length = std::isfinite(c.length) ? c.length : 0;
-    travel += 1e-9 * (1 + c.point.norm() + c.rotation_center.norm() + c.radius + length);
-  }
-  return travel;
+  return travel_rate_[w] * std::abs(distance) + travel_rounding_[w];
 }
 
 std::uint32_t Walls::touching_features(std::size_t w, const Vec3& x, Real r, std::uint32_t* features,

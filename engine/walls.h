@@ -125,6 +125,11 @@ class Walls {
   std::vector<WallConfig> config_;
   std::vector<PrismShape> prism_;  // per wall; empty shape for other kinds
   std::vector<char> filtered_;     // per wall: filtered(w), fixed by its kind and motion
+  // Per wall, fixed by its config: whether it turns and ramps as the wall before it (its pose takes
+  // that wall's rotation and ramp), and for max_travel its speed at its farthest point per unit of
+  // ramp distance and its rounding allowance [m].
+  std::vector<char> turns_with_previous_;
+  std::vector<Real> travel_rate_, travel_rounding_;
   std::vector<std::uint16_t> material_;
   std::vector<Pose> pose_;
   Real time_ = 0;
