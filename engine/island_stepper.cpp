@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "engine/integrators.h"
 #include "engine/scheduler.h"
@@ -189,26 +190,37 @@ bool wall_may_close(const State& s, std::size_t a, const Walls& walls, std::size
          walls.touching_count(w, s.position[a], s.radius[a]);
 }
 
-ClosingWalls::ClosingWalls(const State& s, const Walls& walls, const Vec3& gravity, Real h)
-    : s_(s), walls_(walls), gravity_(gravity), h_(h) {
-  if (s.size() == 0) return;
+ClosingWalls::ClosingWalls(const State& s, const Walls& walls, const Vec3& gravity)
+    : s_(s), walls_(walls), gravity_(gravity) {
+  const bool any_filtered = [&] {
+    for (std::size_t w = 0; w < walls.count(); ++w)
+      if (walls.filtered(w)) return true;
+    return false;
+  }();
+  if (s.size() == 0 || !any_filtered) return;
   // The particles' centres lie within `spread` of `middle`, so a wall turning at omega about c moves
   // its material at any of them by at most |v| + |omega| (|middle - c| + spread).
   Vec3 lo = s.position[0], hi = s.position[0];
-  for (const Vec3& x : s.position) lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+  for (const Vec3& x : s.position) {
+    if (!x.allFinite()) {
+      wall_speed_ = std::numeric_limits<Real>::infinity();
+      return;
+    }
+    lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+  }
   const Vec3 middle = 0.5 * (lo + hi);
   const Real spread = 0.5 * (hi - lo).norm();
   for (std::size_t w = 0; w < walls.count(); ++w) {
     if (!walls.filtered(w)) continue;  // may_touch is true for it
     const Vec3& c = walls.rotation_center(w);
     const Real speed = walls.velocity_at(w, c).norm() + walls.angular_velocity(w).norm() * ((middle - c).norm() + spread);
-    wall_speed_ = std::max(wall_speed_, speed);
+    if (!(speed <= wall_speed_)) wall_speed_ = speed;  // NaN carries through: every wall is then tested
   }
 }
 
-Real ClosingWalls::closing_bound(std::size_t a) const {
+Real ClosingWalls::closing_bound(std::size_t a, Real h) const {
   return (1 + 1e-9) *
-         ((s_.velocity[a].norm() + wall_speed_) * h_ + 0.5 * acceleration_of(s_, a, gravity_).norm() * h_ * h_);
+         ((s_.velocity[a].norm() + wall_speed_) * h + 0.5 * acceleration_of(s_, a, gravity_).norm() * h * h);
 }
 
 void watch_deepest_contact(IslandState& island, Real time) {
@@ -220,13 +232,13 @@ void watch_deepest_contact(IslandState& island, Real time) {
 int anticipation_level(const IslandState& island, const broadphase::CandidatePairs& candidates, const Walls& walls,
                        const Vec3& gravity, Real dt_base, int level, int contact_level) {
   const State& s = island.state;
+  const ClosingWalls closing(s, walls, gravity);
   auto clear_at = [&](int l) {
     const Real h = std::ldexp(dt_base, l);
-    const ClosingWalls closing(s, walls, gravity, h);
     for (std::size_t a = 0; a < s.size(); ++a) {
       for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k)
         if (pair_may_close(s, a, candidates.partner[k], gravity, h)) return false;
-      if (!closing.for_each(a, [](std::size_t) { return false; })) return false;
+      if (!closing.for_each(a, h, [](std::size_t) { return false; })) return false;
     }
     return true;
   };

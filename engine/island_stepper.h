@@ -112,38 +112,40 @@ bool pair_may_close(const State& s, std::size_t a, std::size_t b, const Vec3& gr
 /// wall's velocity there) a feature of wall w that it does not touch now. Walls at the state's time.
 bool wall_may_close(const State& s, std::size_t a, const Walls& walls, std::size_t w, const Vec3& gravity, Real h);
 
-/// The walls each particle of `s` may close on within h (wall_may_close), the same answers for fewer
-/// tests: a filtered wall (Walls::filtered) farther from a particle than twice the most it can close
-/// on any such wall within h (its own speed plus that of the fastest wall point at any particle's
-/// centre, its acceleration) is passed over without its own closing speed.
+/// The walls each particle of `s` may close on within a step h (wall_may_close), the same answers
+/// for fewer tests: a filtered wall (Walls::filtered) farther from a particle than twice the most it
+/// can close on any such wall within h (its own speed plus that of the fastest wall point at any
+/// particle's centre, its acceleration) is passed over without its own closing speed. Where the
+/// bound is not finite, every wall is tested.
 class ClosingWalls {
  public:
   /// Walls at the state's time.
-  ClosingWalls(const State& s, const Walls& walls, const Vec3& gravity, Real h);
-  /// Calls visit(w) for the walls w that particle a may close on, in ascending order, while it returns
-  /// true; returns false when it stopped.
+  ClosingWalls(const State& s, const Walls& walls, const Vec3& gravity);
+  /// Calls visit(w) for the walls w that particle a may close on within h, in ascending order, while
+  /// it returns true; returns false when it stopped.
   template <class Visit>
-  bool for_each(std::size_t a, Visit&& visit) const {
+  bool for_each(std::size_t a, Real h, Visit&& visit) const {
     if (s_.inv_mass[a] == 0) return true;
-    const Real reach = 2 * closing_bound(a);
+    const Real reach = 2 * closing_bound(a, h);
     const bool bounded = std::isfinite(reach);
     for (std::size_t w = 0; w < walls_.count(); ++w)
       if ((!bounded || walls_.may_touch(w, s_.position[a], s_.radius[a], reach)) &&
-          wall_may_close(s_, a, walls_, w, gravity_, h_) && !visit(w))
+          wall_may_close(s_, a, walls_, w, gravity_, h) && !visit(w))
         return false;
     return true;
   }
 
  private:
-  /// At least wall_may_close's closing distance for particle a against any filtered wall [m] (the
-  /// factor covers rounding).
-  Real closing_bound(std::size_t a) const;
+  /// At least wall_may_close's closing distance within h for particle a against any filtered wall
+  /// [m] (the factor covers rounding).
+  Real closing_bound(std::size_t a, Real h) const;
 
   const State& s_;
   const Walls& walls_;
   Vec3 gravity_;
-  Real h_;
-  Real wall_speed_ = 0;  // at least the speed of a filtered wall's material at any particle's centre [m/s]
+  // At least the speed of a filtered wall's material at any particle's centre [m/s]; infinite when
+  // a position is not finite.
+  Real wall_speed_ = 0;
 };
 
 /// Merges the deepest contact of the island as it stands, at `time` [s] (an accepted step's end), into

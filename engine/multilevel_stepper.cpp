@@ -557,10 +557,11 @@ void MultilevelGroup::advance(std::int64_t ticks) {
   impulse_of_.resize(neighbours_.size());
   for (std::size_t c = 0; c < neighbours_.size(); ++c) impulse_of_[c].assign(neighbours_[c].size(), no_impulse);
   // Every particle starts a step now, from the forces its contacts hold (the last evaluation, here).
-  // Loads are zero outside an advance (end_steps clears them), so only new slots need setting.
+  // Loads are zero outside an advance (end_steps clears them; so does this, after an advance cut
+  // short by an exception), so only new slots need setting.
+  clear_loads();
   load_.resize(n);
   loaded_.resize(n);
-  DEM_ASSERT(loaded_list_.empty());
   for (std::size_t c = 0; c < neighbours_.size(); ++c) add_level_loads(c, false, 0.5 * step_of_index(c), duration);
   step_.resize(n);
   for (std::size_t p = 0; p < n; ++p) begin_step(static_cast<ParticleIndex>(p), 0);

@@ -115,7 +115,7 @@ void anticipate_per_pair(const State& s, const broadphase::CandidatePairs& candi
   const auto resolving = [&](std::uint16_t pair_class, Real inv_m) {
     return full_trial_level(contact_resolving_step(materials.params(pair_class).k_n, inv_m), settings);
   };
-  const ClosingWalls closing(s, walls, gravity, h);
+  const ClosingWalls closing(s, walls, gravity);
   for (std::size_t a = 0; a < s.size(); ++a) {
     for (std::uint32_t k = candidates.row_start[a]; k < candidates.row_start[a + 1]; ++k) {
       const std::size_t b = candidates.partner[k];
@@ -124,7 +124,7 @@ void anticipate_per_pair(const State& s, const broadphase::CandidatePairs& candi
       levels[a] = std::min(levels[a], level);
       levels[b] = std::min(levels[b], level);
     }
-    closing.for_each(a, [&](std::size_t w) {
+    closing.for_each(a, h, [&](std::size_t w) {
       levels[a] = std::min(levels[a], resolving(materials.pair_class(s.material[a], walls.material(w)), s.inv_mass[a]));
       return true;
     });

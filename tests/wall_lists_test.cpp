@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "engine/island_stepper.h"
@@ -304,7 +305,25 @@ TEST(WallLists, ParticlesFallingInABoxRunToTheSameStateWithAndWithoutThem) {
 // Collision anticipation passes over the walls a particle is too far from to reach within a step
 // (ClosingWalls, island_stepper.h); it must find exactly the walls that testing each with
 // wall_may_close finds: particles moving and accelerating at random among turning, ramping and
-// translating walls, at steps from 10 us to 10 ms.
+// translating walls, at steps from 10 us to 10 ms, and beside a particle whose position or velocity
+// is not finite (then the bound is not either, and every wall is tested).
+std::vector<std::size_t> walls_testing_each(const State& s, const Walls& walls, std::size_t a, const Vec3& gravity,
+                                            Real h) {
+  std::vector<std::size_t> found;
+  for (std::size_t w = 0; w < walls.count(); ++w)
+    if (wall_may_close(s, a, walls, w, gravity, h)) found.push_back(w);
+  return found;
+}
+
+std::vector<std::size_t> walls_closing(const ClosingWalls& closing, std::size_t a, Real h) {
+  std::vector<std::size_t> found;
+  EXPECT_TRUE(closing.for_each(a, h, [&](std::size_t w) {
+    found.push_back(w);
+    return true;
+  }));
+  return found;
+}
+
 TEST(WallLists, ClosingWallsFindsTheWallsThatTestingEachFinds) {
   Walls walls(varied_walls(), one_material());
   std::mt19937_64 rng(23);
@@ -318,33 +337,43 @@ TEST(WallLists, ClosingWallsFindsTheWallsThatTestingEachFinds) {
   s.add(Vec3(0.1, 0.02, 0), Vec3(1, 0, 0), Vec3::Zero(), 0.004, 0, 0, 0);  // immovable: closes on nothing
   const Vec3 gravity(0, -9.81, 0);
   int closing = 0, far = 0;
-  for (Real t : {0.0, 0.1, 0.7})
-    for (Real h : {1e-5, 1e-4, 1e-3, 1e-2}) {
-      walls.set_time(t);
-      const ClosingWalls found(s, walls, gravity, h);
+  for (Real t : {0.0, 0.1, 0.7}) {
+    walls.set_time(t);
+    const ClosingWalls found(s, walls, gravity);
+    for (Real h : {1e-5, 1e-4, 1e-3, 1e-2})
       for (std::size_t a = 0; a < s.size(); ++a) {
-        std::vector<std::size_t> expected, got;
-        for (std::size_t w = 0; w < walls.count(); ++w)
-          if (wall_may_close(s, a, walls, w, gravity, h)) expected.push_back(w);
-        EXPECT_TRUE(found.for_each(a, [&](std::size_t w) {
-          got.push_back(w);
-          return true;
-        }));
-        ASSERT_EQ(got, expected) << "t = " << t << " s, h = " << h << " s, particle " << a;
+        const std::vector<std::size_t> expected = walls_testing_each(s, walls, a, gravity, h);
+        ASSERT_EQ(walls_closing(found, a, h), expected) << "t = " << t << " s, h = " << h << " s, particle " << a;
         closing += static_cast<int>(expected.size());
         for (std::size_t w = 0; w < walls.count(); ++w)
           far += walls.filtered(w) && !walls.may_touch(w, s.position[a], s.radius[a], 0.01);
       }
-    }
+  }
   EXPECT_GT(closing, 500) << "the particles must close on some walls for the comparison to mean anything";
   EXPECT_GT(far, 10000) << "and most must be far from most walls, which the filter passes over";
   // Stopping: for_each reports that visit stopped it.
   walls.set_time(0.1);
-  const ClosingWalls found(s, walls, gravity, 1e-2);
-  for (std::size_t a = 0; a < s.size(); ++a) {
-    bool any = false;
-    for (std::size_t w = 0; w < walls.count(); ++w) any = any || wall_may_close(s, a, walls, w, gravity, 1e-2);
-    EXPECT_EQ(found.for_each(a, [](std::size_t) { return false; }), !any);
+  const ClosingWalls found(s, walls, gravity);
+  for (std::size_t a = 0; a < s.size(); ++a)
+    EXPECT_EQ(found.for_each(a, 1e-2, [](std::size_t) { return false; }),
+              walls_testing_each(s, walls, a, gravity, 1e-2).empty());
+  // A particle at an infinite or NaN position, or with a NaN velocity, first or last among the others.
+  const Real inf = std::numeric_limits<Real>::infinity(), nan = std::numeric_limits<Real>::quiet_NaN();
+  for (const auto& [x, v] : {std::pair{Vec3(inf, 0, 0), Vec3(0, 0, 0)}, std::pair{Vec3(0.1, nan, 0), Vec3(0, 0, 0)},
+                             std::pair{Vec3(0.1, 0.1, 0), Vec3(nan, 0, 0)}}) {
+    for (bool first : {true, false}) {
+      State odd;
+      if (first) odd.add(x, v, Vec3::Zero(), 0.004, 1, 1, 0);
+      for (std::size_t p = 0; p < s.size(); ++p) {
+        odd.add(s.position[p], s.velocity[p], s.angular_velocity[p], s.radius[p], s.inv_mass[p], s.inv_inertia[p], 0);
+        odd.force.back() = s.force[p];
+      }
+      if (!first) odd.add(x, v, Vec3::Zero(), 0.004, 1, 1, 0);
+      const ClosingWalls with_odd(odd, walls, gravity);
+      for (std::size_t a = 0; a < odd.size(); ++a)
+        ASSERT_EQ(walls_closing(with_odd, a, 1e-3), walls_testing_each(odd, walls, a, gravity, 1e-3))
+            << "particle " << a << " beside one at " << x.transpose() << " moving at " << v.transpose();
+    }
   }
 }
 
