@@ -68,7 +68,7 @@ void print_sweep(const char* scene, const Sweep& s) {
 // docs/physics.md 8.8, engine variant (the parameters of scenes/seed_slope.toml): sphere m = 4, R = 1 on
 // the plane z = 0 with gravity 9.8 tilted so tan(theta) = 0.2 down +x; k = 2000, zeta = 0.2, k_t = 2k/7,
 // zeta_t = 0.2, mu = 0.7, mu_s = 1, mu_r = 0.4, mu_rs = 0.3, standard rolling mode, start at the
-// equilibrium overlap with v = 10 down-slope. dt_base = 2^-10 s; sync interval 2^-7 s (level_max 3).
+// equilibrium overlap with v = 10 down-slope. dt_base = 2^-10 s; sync interval 2^-5 s (level_max 5).
 constexpr Real slope_dt_base = 0x1p-10;
 constexpr int slope_level_max = 5;
 
