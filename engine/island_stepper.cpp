@@ -213,7 +213,8 @@ ClosingWalls::ClosingWalls(const State& s, const Walls& walls, const Vec3& gravi
   for (std::size_t w = 0; w < walls.count(); ++w) {
     if (!walls.filtered(w)) continue;  // may_touch is true for it
     const Vec3& c = walls.rotation_center(w);
-    const Real speed = walls.velocity_at(w, c).norm() + walls.angular_velocity(w).norm() * ((middle - c).norm() + spread);
+    const Real speed =
+        walls.velocity_at(w, c).norm() + walls.angular_velocity(w).norm() * ((middle - c).norm() + spread);
     if (!(speed <= wall_speed_)) wall_speed_ = speed;  // NaN carries through: every wall is then tested
   }
 }
