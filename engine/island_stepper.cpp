@@ -12,6 +12,12 @@
 namespace dem {
 namespace {
 
+/// Merges an overlap seen at `time` [s] into s.deepest (the first of equals, NaN first).
+void merge_deepest(IslandState& s, Worst at, Real time) {
+  at.time = time;
+  s.deepest = Worst::worse(s.deepest, at);
+}
+
 /// Contacts from the current positions and their forces; h is the step the springs advance by.
 void evaluate_forces(IslandState& s, const broadphase::CandidatePairs& candidates, const IslandPhysics& physics,
                      IslandScratch& scratch, Real h) {
@@ -44,9 +50,7 @@ std::uint64_t step(IslandState& s, const broadphase::CandidatePairs& candidates,
     // The trial's own wall-contact history stands in for the workspace's while it steps.
     std::swap(scratch.exact.history, s.exact_history);
     s.exact_dissipated += exact_step(st, scratch.walls, *physics.materials, candidates, settings, t, h, scratch.exact);
-    Worst inside = scratch.exact.deepest;
-    inside.time = t + h;
-    s.deepest = Worst::worse(s.deepest, inside);
+    merge_deepest(s, scratch.exact.deepest, t + h);
     std::swap(scratch.exact.history, s.exact_history);
     s.wall_work += scratch.exact.wall_work - wall_work;
     s.unresolved += scratch.exact.unresolved - unresolved;
@@ -225,9 +229,7 @@ Real ClosingWalls::closing_bound(std::size_t a, Real h) const {
 }
 
 void watch_deepest_contact(IslandState& island, Real time) {
-  Worst at = deepest_contact(island.state, island.pairs, island.walls);
-  at.time = time;
-  island.deepest = Worst::worse(island.deepest, at);
+  merge_deepest(island, deepest_contact(island.state, island.pairs, island.walls), time);
 }
 
 int anticipation_level(const IslandState& island, const broadphase::CandidatePairs& candidates, const Walls& walls,
